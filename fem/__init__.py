@@ -1,0 +1,69 @@
+"""fem: a small, vectorised linear finite-element library for 3D elasticity.
+
+It knows nothing of hands or contact. Meshes of TET4, HEX8 and WEDGE6 cells, sparse
+stiffness assembly, loads, the partitioned solve of prescribed displacements with
+reactions, free bodies, stresses, generators, meshing and IO.
+"""
+
+from __future__ import annotations
+
+from .assembly import assemble_stiffness, element_dofs, element_stiffness
+from .elements import ELEMENTS, HEX8, TET4, WEDGE6, ReferenceElement
+from .errors import FemError, LoadError, MaterialError, MeshError, SolverError
+from .generators import ball_mesh, box_mesh, hex_to_tet, node_dofs, shell_mesh
+from .linsolve import available_backends, factorize
+from .loads import (
+    STANDARD_GRAVITY,
+    gravity_load,
+    initial_stress_load,
+    point_load,
+    pressure_load,
+)
+from .material import LinearElastic, elasticity_matrix, lame
+from .mesh import BoundaryFaces, Mesh
+from .statics import StaticSolution, StaticSolver, check_balance, rigid_body_modes
+from .stress import cell_stress, gauss_strain, nodal_average, von_mises
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "ELEMENTS",
+    "HEX8",
+    "STANDARD_GRAVITY",
+    "TET4",
+    "WEDGE6",
+    "BoundaryFaces",
+    "FemError",
+    "LinearElastic",
+    "LoadError",
+    "MaterialError",
+    "Mesh",
+    "MeshError",
+    "ReferenceElement",
+    "SolverError",
+    "StaticSolution",
+    "StaticSolver",
+    "__version__",
+    "assemble_stiffness",
+    "available_backends",
+    "ball_mesh",
+    "box_mesh",
+    "cell_stress",
+    "check_balance",
+    "elasticity_matrix",
+    "element_dofs",
+    "element_stiffness",
+    "factorize",
+    "gauss_strain",
+    "gravity_load",
+    "hex_to_tet",
+    "initial_stress_load",
+    "lame",
+    "nodal_average",
+    "node_dofs",
+    "point_load",
+    "pressure_load",
+    "rigid_body_modes",
+    "shell_mesh",
+    "von_mises",
+]

@@ -1,0 +1,323 @@
+"""Structured mesh generators: boxes, solid balls and spherical shells of 8-node bricks.
+
+The ball is a mapped cube: a rounded cubic core surrounded by six blocks that run from
+the core to the sphere (a "cubed sphere"); the shell is the six cubed-sphere blocks
+between two radii. Neither needs degenerate bricks: every cell is a proper hexahedron.
+:func:`hex_to_tet` turns any brick mesh into a conforming tetrahedral one.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial import cKDTree
+
+from .elements import ELEMENTS
+from .errors import MeshError
+from .mapping import det3, jacobians
+from .mesh import Mesh
+
+__all__ = ["ball_mesh", "box_mesh", "hex_to_tet", "merge_points", "node_dofs", "shell_mesh"]
+
+
+def node_dofs(nodes: ArrayLike, components: ArrayLike = (0, 1, 2)) -> NDArray[np.int64]:
+    """DOFs of nodes, node-major: ``3 * node + component`` for each node and component."""
+    n = np.asarray(nodes, dtype=np.int64).ravel()
+    c = np.asarray(components, dtype=np.int64).ravel()
+    return (3 * n[:, None] + c[None, :]).ravel()
+
+
+def _grid_index(nx: int, ny: int, nz: int) -> NDArray[np.int64]:
+    return np.arange((nx + 1) * (ny + 1) * (nz + 1)).reshape(nz + 1, ny + 1, nx + 1)
+
+
+def _grid_hexes(idx: NDArray[np.int64]) -> NDArray[np.int64]:
+    """Hexahedra of a structured node index array ``idx[k, j, i]`` (VTK order)."""
+    a = idx
+    return np.stack(
+        [
+            a[:-1, :-1, :-1],
+            a[:-1, :-1, 1:],
+            a[:-1, 1:, 1:],
+            a[:-1, 1:, :-1],
+            a[1:, :-1, :-1],
+            a[1:, :-1, 1:],
+            a[1:, 1:, 1:],
+            a[1:, 1:, :-1],
+        ],
+        axis=-1,
+    ).reshape(-1, 8)
+
+
+_KUHN = np.array(
+    [[0, 1, 2, 6], [0, 2, 3, 6], [0, 3, 7, 6], [0, 7, 4, 6], [0, 4, 5, 6], [0, 5, 1, 6]]
+)
+
+
+def box_mesh(
+    lengths: ArrayLike = (1.0, 1.0, 1.0),
+    divisions: ArrayLike = (4, 4, 4),
+    origin: ArrayLike = (0.0, 0.0, 0.0),
+    element: str = "hexahedron",
+) -> Mesh:
+    """A structured box ``[origin, origin + lengths]``.
+
+    Parameters
+    ----------
+    lengths : array_like, shape (3,)
+        Edge lengths (m), positive.
+    divisions : array_like of int, shape (3,)
+        Cells along x, y and z.
+    origin : array_like, shape (3,)
+    element : {"hexahedron", "wedge", "tetra"}
+        Bricks; each brick split into two wedges (along the xy diagonal); or into six
+        tetrahedra (Kuhn split, conforming).
+    """
+    ln = np.asarray(lengths, dtype=float)
+    nd = np.asarray(divisions)
+    if ln.shape != (3,) or (ln <= 0).any():
+        raise MeshError(f"box lengths must be 3 positive numbers, got {ln.tolist()}")
+    if nd.shape != (3,) or not np.issubdtype(nd.dtype, np.integer) or (nd < 1).any():
+        raise MeshError(f"box divisions must be 3 positive integers, got {nd.tolist()}")
+    nx, ny, nz = (int(v) for v in nd)
+    o = np.asarray(origin, dtype=float)
+    xs = [np.linspace(o[d], o[d] + ln[d], int(nd[d]) + 1) for d in range(3)]
+    z, y, x = np.meshgrid(xs[2], xs[1], xs[0], indexing="ij")
+    pts = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
+    hexes = _grid_hexes(_grid_index(nx, ny, nz))
+    if element == "hexahedron":
+        return Mesh(pts, {"hexahedron": hexes})
+    if element == "wedge":
+        w = np.concatenate([hexes[:, [0, 1, 2, 4, 5, 6]], hexes[:, [0, 2, 3, 4, 6, 7]]])
+        return Mesh(pts, {"wedge": w})
+    if element == "tetra":
+        return Mesh(pts, {"tetra": _orient_tets(pts, hexes[:, _KUHN].reshape(-1, 4))})
+    raise MeshError(f"element must be hexahedron, wedge or tetra, got {element!r}")
+
+
+def _orient_tets(pts: NDArray, tets: NDArray[np.int64]) -> NDArray[np.int64]:
+    x = pts[tets]
+    v = np.einsum("ei,ei->e", np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), x[:, 3] - x[:, 0])
+    tets = tets.copy()
+    neg = v < 0
+    tets[neg, 1], tets[neg, 2] = tets[neg, 2].copy(), tets[neg, 1].copy()
+    return tets
+
+
+def merge_points(
+    points: NDArray[np.float64], cells: dict[str, NDArray[np.int64]], tol: float
+) -> tuple[NDArray[np.float64], dict[str, NDArray[np.int64]]]:
+    """Merge points closer than ``tol`` and renumber cells (first occurrence kept)."""
+    tree = cKDTree(points)
+    pairs = tree.query_pairs(tol, output_type="ndarray")
+    rep = np.arange(len(points))
+    if len(pairs):
+        # union-find over the pairs (few, along block seams)
+        parent = np.arange(len(points))
+
+        def find(i: int) -> int:
+            while parent[i] != i:
+                parent[i] = parent[parent[i]]
+                i = parent[i]
+            return i
+
+        for a, b in pairs:
+            ra, rb = find(int(a)), find(int(b))
+            if ra != rb:
+                parent[max(ra, rb)] = min(ra, rb)
+        rep = np.array([find(i) for i in range(len(points))])
+    uniq, new = np.unique(rep, return_inverse=True)
+    return points[uniq], {k: new[c] for k, c in cells.items()}
+
+
+def _face_frames() -> list[tuple[int, int, int, float]]:
+    """(axis, b, c, sign) for the six cube faces, (b, c, outward) right-handed."""
+    out = []
+    for a in range(3):
+        b, c = (a + 1) % 3, (a + 2) % 3
+        out.append((a, b, c, 1.0))
+        out.append((a, c, b, -1.0))
+    return out
+
+
+def _cube_face_points(t: NDArray[np.float64], frame: tuple[int, int, int, float]) -> NDArray:
+    """Points ``s e_a + t_i e_b + t_j e_c`` on a cube face, shape (n, n, 3) indexed [j, i]."""
+    a, b, c, s = frame
+    n = len(t)
+    q = np.zeros((n, n, 3))
+    q[..., a] = s
+    q[..., b] = t[None, :]
+    q[..., c] = t[:, None]
+    return q
+
+
+def _sphere_dirs(n: int, frame: tuple[int, int, int, float]) -> NDArray[np.float64]:
+    """Equiangular unit directions of one cubed-sphere face, shape (n+1, n+1, 3)."""
+    t = np.tan(np.linspace(-math.pi / 4, math.pi / 4, n + 1))
+    t[0], t[-1] = -1.0, 1.0
+    q = _cube_face_points(t, frame)
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+
+
+def _block_hexes(n: int, layers: int, offset: int) -> NDArray[np.int64]:
+    idx = np.arange((layers + 1) * (n + 1) * (n + 1)).reshape(layers + 1, n + 1, n + 1)
+    return _grid_hexes(idx) + offset
+
+
+def _finish(points: list[NDArray], hexes: list[NDArray], scale: float) -> Mesh:
+    pts = np.concatenate(points)
+    cells = {"hexahedron": np.concatenate(hexes)}
+    pts, cells = merge_points(pts, cells, 1e-9 * scale)
+    return Mesh(pts, cells)
+
+
+def _count(size: float | None, n: int | None, length: float, name: str, least: int) -> int:
+    if n is not None:
+        if int(n) != n or n < least:
+            raise MeshError(f"{name} must be an integer >= {least}, got {n!r}")
+        return int(n)
+    if size is None or not size > 0:
+        raise MeshError(f"give a positive mesh size or {name}, got size={size!r}")
+    return max(least, math.ceil(length / size - 1e-9))
+
+
+def shell_mesh(
+    inner: float,
+    outer: float,
+    size: float | None = None,
+    *,
+    divisions: int | None = None,
+    layers: int | None = None,
+    center: ArrayLike = (0.0, 0.0, 0.0),
+) -> Mesh:
+    """A spherical shell of hexahedra (cubed sphere), e.g. a hollow ball's envelope.
+
+    Parameters
+    ----------
+    inner, outer : float
+        Radii (m), ``0 < inner < outer``.
+    size : float, optional
+        Target edge length (m); sets ``divisions`` and ``layers`` when they are omitted.
+    divisions : int, optional
+        Cells along each edge of each of the six faces.
+    layers : int, optional
+        Cells through the wall.
+    center : array_like, shape (3,)
+    """
+    if not 0 < inner < outer:
+        raise MeshError(f"shell radii must satisfy 0 < inner < outer, got {inner}, {outer}")
+    rm = 0.5 * (inner + outer)
+    n = _count(size, divisions, 0.5 * math.pi * rm, "divisions", 1)
+    nl = _count(size, layers, outer - inner, "layers", 1)
+    radii = np.linspace(inner, outer, nl + 1)
+    pts, hexes = [], []
+    for frame in _face_frames():
+        d = _sphere_dirs(n, frame)
+        p = radii[:, None, None, None] * d[None]
+        hexes.append(_block_hexes(n, nl, sum(len(x) for x in pts)))
+        pts.append(p.reshape(-1, 3))
+    mesh = _finish(pts, hexes, outer)
+    return Mesh(mesh.points + np.asarray(center, float), mesh.cells)
+
+
+def ball_mesh(
+    radius: float,
+    size: float | None = None,
+    *,
+    divisions: int | None = None,
+    layers: int | None = None,
+    center: ArrayLike = (0.0, 0.0, 0.0),
+    core: float = 0.5,
+) -> Mesh:
+    """A solid ball of hexahedra: a rounded cubic core and six cubed-sphere blocks.
+
+    Parameters
+    ----------
+    radius : float
+        Ball radius (m).
+    size : float, optional
+        Target edge length (m); sets ``divisions`` and ``layers`` when omitted.
+    divisions : int, optional
+        Cells along each edge of the core cube (and of each outer block's faces).
+    layers : int, optional
+        Cells from the core to the sphere.
+    center : array_like, shape (3,)
+    core : float
+        Core half-width as a fraction of the radius, in (0.2, 0.7).
+    """
+    if not radius > 0:
+        raise MeshError(f"ball radius must be positive, got {radius!r}")
+    if not 0.2 <= core <= 0.7:
+        raise MeshError(f"core must lie in [0.2, 0.7], got {core!r}")
+    a = core * radius
+    n = _count(size, divisions, 2 * a, "divisions", 1)
+    nl = _count(size, layers, radius - a * 1.2, "layers", 1)
+    gamma = 0.5  # how far the core's faces bulge towards a sphere through its corners
+
+    def core_map(q: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Map the cube [-1, 1]^3 onto the rounded core, scaling rays from the centre."""
+        inf = np.abs(q).max(axis=-1, keepdims=True)
+        l2 = np.linalg.norm(q, axis=-1, keepdims=True)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            qs = np.where(inf > 0, q / inf, 0.0)  # on the cube surface
+            l2s = np.where(inf > 0, l2 / inf, 1.0)
+        surf = a * ((1 - gamma) * qs + gamma * math.sqrt(2.0) * qs / l2s)
+        return inf * surf
+
+    t = np.linspace(-1.0, 1.0, n + 1)
+    z, y, x = np.meshgrid(t, t, t, indexing="ij")
+    cube = np.stack([x, y, z], axis=-1)
+    pts = [core_map(cube).reshape(-1, 3)]
+    hexes = [_grid_hexes(_grid_index(n, n, n))]
+    for frame in _face_frames():
+        inner = core_map(_cube_face_points(t, frame))
+        outer = radius * _sphere_dirs(n, frame)
+        s = np.linspace(0.0, 1.0, nl + 1)[:, None, None, None]
+        p = inner[None] + s * (outer - inner)[None]
+        hexes.append(_block_hexes(n, nl, sum(len(v) for v in pts)))
+        pts.append(p.reshape(-1, 3))
+    mesh = _finish(pts, hexes, radius)
+    return Mesh(mesh.points + np.asarray(center, float), mesh.cells)
+
+
+def hex_to_tet(mesh: Mesh) -> Mesh:
+    """Split every hexahedron into 24 tetrahedra through face and cell centres.
+
+    Conforming for any brick mesh (face centres are shared by neighbours); other cell
+    types are kept as they are; regions are inherited.
+    """
+    if "hexahedron" not in mesh.cells:
+        return mesh
+    hexes = mesh.cells["hexahedron"]
+    m = len(hexes)
+    faces = np.stack([hexes[:, list(f)] for f in ELEMENTS["hexahedron"].faces], axis=1)
+    keys = np.sort(faces.reshape(-1, 4), axis=1)
+    uniq, inv = np.unique(keys, axis=0, return_inverse=True)
+    inv = inv.ravel()
+    n0 = mesh.n_points
+    face_ctr = mesh.points[uniq].mean(axis=1)
+    cell_ctr = mesh.points[hexes].mean(axis=1)
+    pts = np.concatenate([mesh.points, face_ctr, cell_ctr])
+    fid = (n0 + inv).reshape(m, 6)
+    cid = n0 + len(uniq) + np.arange(m)
+    tets = []
+    for f in range(6):
+        for i in range(4):
+            tets.append(
+                np.stack(
+                    [faces[:, f, (i + 1) % 4], faces[:, f, i], fid[:, f], cid], axis=1
+                )
+            )
+    tet = np.stack(tets, axis=1).reshape(-1, 4)
+    x = pts[tet]
+    vol = det3(jacobians(x, ELEMENTS["tetra"]))[:, 0]
+    if (vol <= 0).any():
+        tet = _orient_tets(pts, tet)
+    cells = {k: c for k, c in mesh.cells.items() if k != "hexahedron"}
+    regions = {k: r for k, r in mesh.regions.items() if k != "hexahedron"}
+    cells["tetra"] = np.concatenate([cells["tetra"], tet]) if "tetra" in cells else tet
+    reg = np.repeat(mesh.regions["hexahedron"], 24)
+    regions["tetra"] = np.concatenate([regions["tetra"], reg]) if "tetra" in regions else reg
+    return Mesh(pts, cells, regions)

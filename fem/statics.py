@@ -1,0 +1,394 @@
+"""The partitioned static solve of seed equations (6) to (8), and free bodies.
+
+Given prescribed DOFs ``k`` with values ``Uk``, the system ``K U = R`` splits into
+
+    K11 Uu = Rk - K12 Uk        (7)
+    Ru     = K21 Uu + K22 Uk    (8)
+
+Only ``K11`` is factored, once. Extra prescribed DOFs (the contact nodes of an iteration)
+are imposed on top of that factorisation through a small dense Schur complement
+``S = E K11^-1 E^T`` on them: the result is exactly that of re-partitioning and
+re-factoring, at the cost of one back-solve per extra DOF.
+
+A body with no prescribed DOF is free: its stiffness has six rigid-body modes. Its
+pseudo-inverse is applied exactly: a load is projected onto the balanced ones, solved on a
+statically determinate support of six DOFs chosen by pivoted QR of the modes (whose
+reactions vanish for a balanced load) and the rigid part of the result projected out.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections import OrderedDict
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+from numpy.typing import ArrayLike, NDArray
+
+from .errors import LoadError, SolverError
+from .linsolve import factorize
+
+__all__ = ["StaticSolution", "StaticSolver", "check_balance", "rigid_body_modes"]
+
+log = logging.getLogger(__name__)
+
+#: Columns of back-solves done at once when building a Schur complement.
+BLOCK = 256
+
+
+def rigid_body_modes(points: ArrayLike) -> NDArray[np.float64]:
+    """Orthonormal basis of the six rigid-body displacement modes.
+
+    Parameters
+    ----------
+    points : array_like, shape (N, 3)
+
+    Returns
+    -------
+    ndarray, shape (3N, 6)
+        Columns span the three translations and three infinitesimal rotations about the
+        centroid; orthonormal.
+    """
+    x = np.asarray(points, dtype=np.float64)
+    n = len(x)
+    r = x - x.mean(axis=0)
+    phi = np.zeros((n, 3, 6))
+    for i in range(3):
+        phi[:, i, i] = 1.0
+    # rotation about axis a: u = e_a x r
+    phi[:, 1, 3], phi[:, 2, 3] = -r[:, 2], r[:, 1]
+    phi[:, 0, 4], phi[:, 2, 4] = r[:, 2], -r[:, 0]
+    phi[:, 0, 5], phi[:, 1, 5] = -r[:, 1], r[:, 0]
+    q, _ = np.linalg.qr(phi.reshape(3 * n, 6))
+    return q
+
+
+def check_balance(f: NDArray[np.float64], points: ArrayLike, rtol: float = 1e-8) -> None:
+    """Raise :class:`LoadError` if nodal forces are not in balance.
+
+    The resultant force and the moment about the centroid must both vanish to ``rtol``
+    relative to the total magnitude of the forces (and that times the body's size).
+    """
+    x = np.asarray(points, dtype=np.float64)
+    fv = np.asarray(f, dtype=np.float64).reshape(-1, 3)
+    r = x - x.mean(axis=0)
+    force = fv.sum(axis=0)
+    moment = np.cross(r, fv).sum(axis=0)
+    scale = np.linalg.norm(fv, axis=1).sum()
+    size = max(float(np.ptp(x, axis=0).max()), 1e-300)
+    if scale == 0.0:
+        return
+    if np.linalg.norm(force) > rtol * scale or np.linalg.norm(moment) > rtol * scale * size:
+        raise LoadError(
+            "loads on a free body are not in balance: resultant force "
+            f"[{force[0]:.6g}, {force[1]:.6g}, {force[2]:.6g}] N, moment about the centroid "
+            f"[{moment[0]:.6g}, {moment[1]:.6g}, {moment[2]:.6g}] N m"
+        )
+
+
+@dataclass(frozen=True)
+class StaticSolution:
+    """Result of a static solve.
+
+    Attributes
+    ----------
+    u : ndarray, shape (n_dofs,)
+        Displacements, node-major.
+    reactions : ndarray, shape (n_dofs,)
+        Reactions ``K U - R`` at the prescribed DOFs (base and extra), zero elsewhere:
+        the force the support exerts on the body.
+    extra_reactions : ndarray, shape (m,)
+        Reactions of the extra constraints, in their order (``-lambda``).
+    rigid : ndarray, shape (6,)
+        For a free body, the coefficients of the rigid-body modes in ``u``; else empty.
+    """
+
+    u: NDArray[np.float64]
+    reactions: NDArray[np.float64]
+    extra_reactions: NDArray[np.float64]
+    rigid: NDArray[np.float64]
+
+
+class StaticSolver:
+    """Factor a body once; solve for many loads and changing extra prescribed DOFs.
+
+    Parameters
+    ----------
+    stiffness : scipy.sparse matrix, shape (n, n)
+        The assembled symmetric stiffness.
+    prescribed : array_like of int, optional
+        The base prescribed DOFs (e.g. bone nodes); ``K11`` over the others is factored.
+        Empty: a free body, and ``points`` is required.
+    points : array_like, shape (n/3, 3), optional
+        Node coordinates, for the rigid-body modes of a free body.
+    backend : str
+        Linear solver name (see :func:`fem.factorize`).
+
+    Examples
+    --------
+    >>> import numpy as np, fem
+    >>> mesh = fem.box_mesh((1, 1, 1), (2, 2, 2))
+    >>> K = fem.assemble_stiffness(mesh, fem.LinearElastic(1e6, 0.3))
+    >>> fixed = fem.node_dofs(np.flatnonzero(mesh.points[:, 2] == 0))
+    >>> s = fem.StaticSolver(K, fixed)
+    >>> sol = s.solve(np.zeros(K.shape[0]))
+    >>> float(abs(sol.u).max())
+    0.0
+    """
+
+    def __init__(
+        self,
+        stiffness: sp.spmatrix,
+        prescribed: ArrayLike | None = None,
+        *,
+        points: ArrayLike | None = None,
+        backend: str = "auto",
+    ) -> None:
+        k = sp.csr_matrix(stiffness, dtype=np.float64)
+        n = k.shape[0]
+        if k.shape != (n, n):
+            raise SolverError(f"stiffness must be square, got shape {k.shape}")
+        self.k = k
+        self.n = n
+        pres = np.unique(np.asarray([] if prescribed is None else prescribed, dtype=np.int64))
+        if pres.size and (pres[0] < 0 or pres[-1] >= n):
+            raise SolverError(f"prescribed DOFs must lie in 0..{n - 1}, got {pres[0]}..{pres[-1]}")
+        self.prescribed = pres
+        mask = np.ones(n, dtype=bool)
+        mask[pres] = False
+        self.free = np.flatnonzero(mask)
+        self._pos = np.full(n, -1, dtype=np.int64)
+        self._pos[self.free] = np.arange(self.free.size)
+        self.free_body = pres.size == 0
+        self.points = None if points is None else np.asarray(points, dtype=np.float64)
+        if self.free_body:
+            if self.points is None or self.points.shape != (n // 3, 3):
+                raise SolverError(
+                    "a body with no prescribed DOF is free: give its points (n/3, 3) so that "
+                    "its rigid-body modes can be removed"
+                )
+            self.modes = rigid_body_modes(self.points)
+            # six DOFs spanning the rigid modes best: a statically determinate support
+            _, _, piv = sla.qr(self.modes.T, mode="economic", pivoting=True)
+            self._support = np.sort(piv[:6])
+            keep = np.ones(n, dtype=bool)
+            keep[self._support] = False
+            self._inner = np.flatnonzero(keep)
+            self._fact = factorize(k[self._inner][:, self._inner], backend)
+        else:
+            self.modes = np.zeros((n, 0))
+            self._k11 = k[self.free][:, self.free]
+            self._k12 = k[self.free][:, pres]
+            self._fact = factorize(self._k11, backend)
+        self.backend = self._fact.backend
+        self._schur: OrderedDict[bytes, tuple[NDArray, NDArray | None]] = OrderedDict()
+
+    # --- the inverse on the free DOFs ----------------------------------------------
+
+    def apply_inverse(self, r: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``K11^-1 r`` on the free DOFs (a free body: ``K^+ r``, rigid part removed).
+
+        ``r`` has shape ``(n_free,)`` or ``(n_free, k)``.
+        """
+        r = np.asarray(r, dtype=np.float64)
+        if not self.free_body:
+            return self._fact.solve(r)
+        phi = self.modes
+        rb = r - phi @ (phi.T @ r)
+        x = np.zeros_like(rb)
+        x[self._inner] = self._fact.solve(rb[self._inner])
+        return x - phi @ (phi.T @ x)
+
+    # --- constraints -----------------------------------------------------------------
+
+    def _constraint_matrix(self, extra: ArrayLike | sp.spmatrix) -> sp.csr_matrix:
+        if sp.issparse(extra):
+            e = sp.csr_matrix(extra, dtype=np.float64)
+            if e.shape[1] != self.n:
+                raise SolverError(f"constraint matrix must have {self.n} columns, got {e.shape}")
+            return e
+        dofs = np.asarray(extra, dtype=np.int64).ravel()
+        if dofs.size and (dofs.min() < 0 or dofs.max() >= self.n):
+            raise SolverError(f"extra prescribed DOFs must lie in 0..{self.n - 1}")
+        if np.unique(dofs).size != dofs.size:
+            raise SolverError("extra prescribed DOFs repeat a DOF")
+        clash = np.intersect1d(dofs, self.prescribed)
+        if clash.size:
+            raise SolverError(
+                f"extra prescribed DOFs {clash[:5].tolist()} are already prescribed"
+            )
+        m = dofs.size
+        return sp.csr_matrix((np.ones(m), (np.arange(m), dofs)), shape=(m, self.n))
+
+    def compliance(self, extra: ArrayLike | sp.spmatrix) -> NDArray[np.float64]:
+        """The dense compliance ``E K11^-1 E^T`` (free body: ``E K^+ E^T``) of constraints.
+
+        ``extra`` is a list of DOFs or a sparse ``(m, n)`` constraint matrix. Cached for
+        the last few constraint sets.
+        """
+        e = self._constraint_matrix(extra)
+        return self._schur_of(e)[0]
+
+    def _schur_of(self, e: sp.csr_matrix) -> tuple[NDArray, NDArray | None]:
+        key = _key(e)
+        if key in self._schur:
+            self._schur.move_to_end(key)
+            return self._schur[key]
+        ef = e[:, self.free]
+        m = ef.shape[0]
+        s = np.empty((m, m))
+        eft = ef.T.tocsc()
+        for j in range(0, m, BLOCK):
+            cols = eft[:, j : j + BLOCK].toarray()
+            z = self.apply_inverse(cols)
+            s[:, j : j + BLOCK] = ef @ z
+        s = 0.5 * (s + s.T)
+        e_phi = (e @ self.modes) if self.free_body else None
+        self._schur[key] = (s, e_phi)
+        if len(self._schur) > 4:
+            self._schur.popitem(last=False)
+        return s, e_phi
+
+    # --- the solve -------------------------------------------------------------------
+
+    def solve(
+        self,
+        loads: ArrayLike | None = None,
+        values: ArrayLike | None = None,
+        *,
+        extra: ArrayLike | sp.spmatrix | None = None,
+        extra_values: ArrayLike | None = None,
+    ) -> StaticSolution:
+        """Solve ``K U = R`` with the base and optional extra prescribed DOFs.
+
+        Parameters
+        ----------
+        loads : array_like, shape (n,), optional
+            Known nodal loads ``R`` (zero by default). For a free body with no extra
+            constraint they must be in balance.
+        values : array_like, optional
+            Values ``Uk`` of the base prescribed DOFs (shape ``(n_prescribed,)``, in
+            sorted DOF order) or a full ``(n,)`` vector from which they are taken; zero
+            by default.
+        extra : array_like of int or sparse matrix, optional
+            Extra prescribed DOFs, or an ``(m, n)`` constraint matrix ``E`` (``E U = g``).
+        extra_values : array_like, shape (m,), optional
+            Their values ``g``; zero by default.
+
+        Returns
+        -------
+        StaticSolution
+
+        Raises
+        ------
+        LoadError
+            Unbalanced loads on a free body, or constraints that leave a rigid mode free
+            while the load is out of balance in it.
+        """
+        n = self.n
+        f = np.zeros(n) if loads is None else np.asarray(loads, dtype=np.float64)
+        if f.shape != (n,):
+            raise SolverError(f"loads must have shape ({n},), got {f.shape}")
+        uk = self._values(values)
+        u = np.zeros(n)
+        u[self.prescribed] = uk
+        rf = f[self.free]
+        if self.prescribed.size:
+            rf = rf - self._k12 @ uk
+        rigid = np.zeros(0)
+        lam = np.zeros(0)
+        if extra is None or (not sp.issparse(extra) and np.size(extra) == 0):
+            if self.free_body:
+                check_balance(f, self.points)
+            u[self.free] = self.apply_inverse(rf)
+        else:
+            e = self._constraint_matrix(extra)
+            m = e.shape[0]
+            g = np.zeros(m) if extra_values is None else np.asarray(extra_values, float)
+            if g.shape != (m,):
+                raise SolverError(f"extra_values must have shape ({m},), got {g.shape}")
+            if self.prescribed.size:
+                g = g - e[:, self.prescribed] @ uk
+            s, e_phi = self._schur_of(e)
+            ef = e[:, self.free]
+            x0 = self.apply_inverse(rf)
+            rhs = ef @ x0 - g
+            if self.free_body:
+                lam, a = _saddle(s, e_phi, rhs, self.modes.T @ f)
+                u[self.free] = self.apply_inverse(rf - ef.T @ lam) + self.modes @ a
+                rigid = a
+            else:
+                lam = _spd_solve(s, rhs)
+                u[self.free] = self.apply_inverse(rf - ef.T @ lam)
+        reactions = np.zeros(n)
+        if self.prescribed.size:
+            kr = self.k[self.prescribed]
+            reactions[self.prescribed] = kr @ u - f[self.prescribed]  # equation (8)
+        if lam.size:
+            reactions += -(self._constraint_matrix(extra).T @ lam)
+        if self.free_body and rigid.size == 0:
+            rigid = np.zeros(6)
+        return StaticSolution(u=u, reactions=reactions, extra_reactions=-lam, rigid=rigid)
+
+    def _values(self, values: ArrayLike | None) -> NDArray[np.float64]:
+        npres = self.prescribed.size
+        if values is None:
+            return np.zeros(npres)
+        v = np.asarray(values, dtype=np.float64)
+        if v.shape == (self.n,):
+            return v[self.prescribed]
+        if v.shape != (npres,):
+            raise SolverError(
+                f"prescribed values must have shape ({npres},) or ({self.n},), got {v.shape}"
+            )
+        return v
+
+
+def _key(e: sp.csr_matrix) -> bytes:
+    e.sort_indices()
+    return (
+        np.int64(e.shape[0]).tobytes()
+        + e.indptr.tobytes()
+        + e.indices.tobytes()
+        + e.data.tobytes()
+    )
+
+
+def _spd_solve(s: NDArray, rhs: NDArray) -> NDArray:
+    if s.size == 0:
+        return np.zeros(0)
+    try:
+        c = sla.cho_factor(s)
+        return sla.cho_solve(c, rhs)
+    except sla.LinAlgError as exc:
+        raise SolverError(
+            "the extra constraints are dependent (their compliance is singular): a DOF or "
+            "constraint is repeated"
+        ) from exc
+
+
+def _saddle(
+    s: NDArray, e_phi: NDArray, rhs: NDArray, phi_f: NDArray
+) -> tuple[NDArray, NDArray]:
+    """Solve ``[[S, -EP], [-EP^T, 0]] [lam; a] = [rhs; -P^T f]`` for a free body."""
+    m = s.shape[0]
+    big = np.zeros((m + 6, m + 6))
+    big[:m, :m] = s
+    big[:m, m:] = -e_phi
+    big[m:, :m] = -e_phi.T
+    b = np.concatenate([rhs, -phi_f])
+    sv = np.linalg.svd(e_phi, compute_uv=False) if m else np.zeros(6)
+    if sv.size < 6 or sv[-1] <= 1e-10 * max(sv[0], 1e-300):
+        # constraints leave rigid modes free: least squares, and check the balance
+        sol, *_ = np.linalg.lstsq(big, b, rcond=1e-12)
+        res = big @ sol - b
+        if np.linalg.norm(res) > 1e-8 * max(np.linalg.norm(b), 1e-300):
+            raise LoadError(
+                "the prescribed DOFs do not hold the free body in every direction and the "
+                "loads are not in balance in the free directions"
+            )
+    else:
+        sol = sla.solve(big, b, assume_a="sym")
+    return sol[:m], sol[m:]

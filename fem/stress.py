@@ -1,0 +1,108 @@
+"""Strain and stress from displacements: Gauss points, element averages, nodal averages."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .assembly import lame_fields
+from .elements import ELEMENTS
+from .mapping import gradients
+from .material import LinearElastic
+from .mesh import Mesh
+
+__all__ = ["cell_stress", "gauss_strain", "nodal_average", "stress_from_strain", "von_mises"]
+
+
+def gauss_strain(mesh: Mesh, u: ArrayLike) -> dict[str, NDArray[np.float64]]:
+    """Small strain tensor at every Gauss point: per type ``(M, q, 3, 3)``."""
+    uv = np.asarray(u, dtype=np.float64).reshape(-1, 3)
+    out = {}
+    for kind, conn in mesh.cells.items():
+        grad, _ = gradients(mesh.points[conn], ELEMENTS[kind])
+        du = np.einsum("eqaj,eai->eqij", grad, uv[conn])  # du_i/dx_j
+        out[kind] = 0.5 * (du + du.swapaxes(-1, -2))
+    return out
+
+
+def stress_from_strain(
+    eps: NDArray[np.float64], lam: NDArray[np.float64], mu: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Isotropic Hooke's law ``sigma = lam tr(eps) I + 2 mu eps`` (``lam, mu`` broadcast)."""
+    tr = np.trace(eps, axis1=-2, axis2=-1)
+    return lam[..., None, None] * tr[..., None, None] * np.eye(3) + 2.0 * mu[..., None, None] * eps
+
+
+def von_mises(sigma: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Von Mises equivalent stress of ``(..., 3, 3)`` tensors."""
+    dev = sigma - np.trace(sigma, axis1=-2, axis2=-1)[..., None, None] * np.eye(3) / 3.0
+    return np.sqrt(1.5 * np.einsum("...ij,...ij->...", dev, dev))
+
+
+def cell_stress(
+    mesh: Mesh,
+    materials: LinearElastic | Mapping[int, LinearElastic],
+    u: ArrayLike,
+    initial: Mapping[str, ArrayLike] | None = None,
+    *,
+    at: str = "mean",
+) -> dict[str, NDArray[np.float64]]:
+    """Cauchy stress per cell.
+
+    Parameters
+    ----------
+    mesh, materials, u
+        The mesh, its materials and a displacement vector ``(3N,)``.
+    initial : mapping, optional
+        Initial stress per cell type ``(M, 3, 3)`` added to the elastic stress.
+    at : {"mean", "gauss"}
+        ``"mean"``: the volume average over each cell ``(M, 3, 3)``; ``"gauss"``: every
+        Gauss point ``(M, q, 3, 3)``.
+    """
+    if at not in ("mean", "gauss"):
+        raise ValueError(f"at must be 'mean' or 'gauss', got {at!r}")
+    eps = gauss_strain(mesh, u)
+    fields = lame_fields(mesh, materials)
+    out = {}
+    for kind, e in eps.items():
+        lam, mu = fields[kind]
+        s = stress_from_strain(e, lam[:, None], mu[:, None])
+        if initial is not None and kind in initial:
+            s = s + np.asarray(initial[kind], dtype=np.float64)[:, None]
+        if at == "mean":
+            _, detj = gradients(mesh.points[mesh.cells[kind]], ELEMENTS[kind])
+            w = detj * ELEMENTS[kind].weights
+            s = np.einsum("eq,eqij->eij", w, s) / w.sum(axis=1)[:, None, None]
+        out[kind] = s
+    return out
+
+
+def nodal_average(mesh: Mesh, cell_values: Mapping[str, ArrayLike]) -> NDArray[np.float64]:
+    """Volume-weighted average of per-cell values at the nodes (for smooth plots).
+
+    ``cell_values`` maps each cell type to ``(M, ...)``; returns ``(N, ...)``.
+    """
+    shape = None
+    acc: NDArray[np.float64] | None = None
+    weight = np.zeros(mesh.n_points)
+    for kind, conn in mesh.cells.items():
+        v = np.asarray(cell_values[kind], dtype=np.float64)
+        vol = mesh.volumes[kind]
+        if shape is None:
+            shape = v.shape[1:]
+            acc = np.zeros((mesh.n_points, int(np.prod(shape, dtype=int))))
+        flat = (v.reshape(len(conn), -1) * vol[:, None]) / conn.shape[1]
+        for j in range(flat.shape[1]):
+            acc[:, j] += np.bincount(
+                conn.ravel(), np.repeat(flat[:, j], conn.shape[1]), minlength=mesh.n_points
+            )
+        weight += np.bincount(
+            conn.ravel(), np.repeat(vol / conn.shape[1], conn.shape[1]), minlength=mesh.n_points
+        )
+    assert acc is not None and shape is not None
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = acc / weight[:, None]
+    out[weight == 0] = 0.0
+    return out.reshape((mesh.n_points, *shape))
