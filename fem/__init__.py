@@ -11,6 +11,7 @@ from .assembly import assemble_stiffness, element_dofs, element_stiffness
 from .elements import ELEMENTS, HEX8, TET4, WEDGE6, ReferenceElement
 from .errors import FemError, LoadError, MaterialError, MeshError, SolverError
 from .generators import ball_mesh, box_mesh, hex_to_tet, node_dofs, shell_mesh
+from .io import read_mesh, read_mesh_data, write_mesh
 from .linsolve import available_backends, factorize
 from .loads import (
     STANDARD_GRAVITY,
@@ -21,6 +22,8 @@ from .loads import (
 )
 from .material import LinearElastic, elasticity_matrix, lame
 from .mesh import BoundaryFaces, Mesh
+from .meshing import check_surface, sphere_surface, tetrahedralize
+from .pvmesh import from_pyvista, to_pyvista
 from .statics import StaticSolution, StaticSolver, check_balance, rigid_body_modes
 from .stress import cell_stress, gauss_strain, nodal_average, von_mises
 
@@ -50,10 +53,12 @@ __all__ = [
     "box_mesh",
     "cell_stress",
     "check_balance",
+    "check_surface",
     "elasticity_matrix",
     "element_dofs",
     "element_stiffness",
     "factorize",
+    "from_pyvista",
     "gauss_strain",
     "gravity_load",
     "hex_to_tet",
@@ -63,7 +68,13 @@ __all__ = [
     "node_dofs",
     "point_load",
     "pressure_load",
+    "read_mesh",
+    "read_mesh_data",
     "rigid_body_modes",
     "shell_mesh",
+    "sphere_surface",
+    "tetrahedralize",
+    "to_pyvista",
     "von_mises",
+    "write_mesh",
 ]

@@ -306,9 +306,7 @@ def hex_to_tet(mesh: Mesh) -> Mesh:
     for f in range(6):
         for i in range(4):
             tets.append(
-                np.stack(
-                    [faces[:, f, (i + 1) % 4], faces[:, f, i], fid[:, f], cid], axis=1
-                )
+                np.stack([faces[:, f, (i + 1) % 4], faces[:, f, i], fid[:, f], cid], axis=1)
             )
     tet = np.stack(tets, axis=1).reshape(-1, 4)
     x = pts[tet]

@@ -71,7 +71,7 @@ class _Pardiso:
         if s is not None:
             try:
                 s.free_memory(everything=True)
-            except Exception:  # noqa: BLE001 - never raise from a destructor
+            except Exception:  # never raise from a destructor
                 pass
 
 
@@ -84,7 +84,9 @@ class _SuperLU:
         self.n = a.shape[0]
         try:
             self._lu = spla.splu(
-                sp.csc_matrix(a), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                sp.csc_matrix(a),
+                permc_spec="MMD_AT_PLUS_A",
+                diag_pivot_thresh=0.0,
                 options={"SymmetricMode": True},
             )
         except RuntimeError as exc:
@@ -92,6 +94,13 @@ class _SuperLU:
                 f"SuperLU could not factor the matrix ({exc}): it is singular; is the body "
                 "free to move? prescribe displacements that hold it, or solve it as a free body"
             ) from exc
+        piv = np.abs(self._lu.U.diagonal())
+        if piv.size and piv.min() <= 1e-12 * piv.max():
+            raise SolverError(
+                f"SuperLU found the matrix singular (pivot ratio {piv.min() / piv.max():.2e}): "
+                "is the body free to move? prescribe displacements that hold it, or solve it "
+                "as a free body"
+            )
 
     def solve(self, b: NDArray[np.float64]) -> NDArray[np.float64]:
         x = self._lu.solve(np.asarray(b, dtype=np.float64))
@@ -143,7 +152,9 @@ def factorize(a: sp.spmatrix, backend: str = "auto") -> Factorization:
     if backend == "auto":
         backend = names[0]
     if backend not in BACKENDS:
-        raise SolverError(f"unknown linear solver {backend!r}; choose from auto, {', '.join(BACKENDS)}")
+        raise SolverError(
+            f"unknown linear solver {backend!r}; choose from auto, {', '.join(BACKENDS)}"
+        )
     if backend not in names:
         raise SolverError(f"linear solver {backend!r} is not available here; available: {names}")
     a = sp.csr_matrix(a, dtype=np.float64)

@@ -93,7 +93,9 @@ class Mesh:
         bad = ~np.isfinite(pts).all(axis=1)
         if bad.any():
             idx = np.flatnonzero(bad)
-            raise MeshError(f"{idx.size} point(s) have non-finite coordinates, first: point {idx[0]}")
+            raise MeshError(
+                f"{idx.size} point(s) have non-finite coordinates, first: point {idx[0]}"
+            )
         if not isinstance(cells, Mapping) or len(cells) == 0:
             raise MeshError("cells must be a non-empty mapping of cell type to connectivity")
         self.points: NDArray[np.float64] = pts
@@ -225,9 +227,7 @@ class Mesh:
             return self
         new = np.full(self.n_points, -1, dtype=np.int64)
         new[used] = np.arange(int(used.sum()))
-        return Mesh(
-            self.points[used], {k: new[c] for k, c in self.cells.items()}, self.regions
-        )
+        return Mesh(self.points[used], {k: new[c] for k, c in self.cells.items()}, self.regions)
 
     @cached_property
     def boundary(self) -> BoundaryFaces:

@@ -216,9 +216,7 @@ class StaticSolver:
             raise SolverError("extra prescribed DOFs repeat a DOF")
         clash = np.intersect1d(dofs, self.prescribed)
         if clash.size:
-            raise SolverError(
-                f"extra prescribed DOFs {clash[:5].tolist()} are already prescribed"
-            )
+            raise SolverError(f"extra prescribed DOFs {clash[:5].tolist()} are already prescribed")
         m = dofs.size
         return sp.csr_matrix((np.ones(m), (np.arange(m), dofs)), shape=(m, self.n))
 
@@ -349,10 +347,7 @@ class StaticSolver:
 def _key(e: sp.csr_matrix) -> bytes:
     e.sort_indices()
     return (
-        np.int64(e.shape[0]).tobytes()
-        + e.indptr.tobytes()
-        + e.indices.tobytes()
-        + e.data.tobytes()
+        np.int64(e.shape[0]).tobytes() + e.indptr.tobytes() + e.indices.tobytes() + e.data.tobytes()
     )
 
 
@@ -369,9 +364,7 @@ def _spd_solve(s: NDArray, rhs: NDArray) -> NDArray:
         ) from exc
 
 
-def _saddle(
-    s: NDArray, e_phi: NDArray, rhs: NDArray, phi_f: NDArray
-) -> tuple[NDArray, NDArray]:
+def _saddle(s: NDArray, e_phi: NDArray, rhs: NDArray, phi_f: NDArray) -> tuple[NDArray, NDArray]:
     """Solve ``[[S, -EP], [-EP^T, 0]] [lam; a] = [rhs; -P^T f]`` for a free body."""
     m = s.shape[0]
     big = np.zeros((m + 6, m + 6))

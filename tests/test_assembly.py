@@ -18,7 +18,7 @@ def _skfem_stiffness(mesh: fem.Mesh) -> sp.csr_matrix:
         elem = skfem.ElementVector(skfem.ElementTetP1())
         basis = skfem.Basis(m, elem, intorder=1)
     else:
-        # scikit-fem orders hex nodes (0,0,0),(0,0,1),(0,1,0),(1,0,0),(0,1,1),(1,0,1),(1,1,0),(1,1,1)
+        # scikit-fem orders hex nodes 000, 001, 010, 100, 011, 101, 110, 111 (xyz)
         t = mesh.cells["hexahedron"][:, [0, 4, 3, 1, 7, 5, 2, 6]]
         m = skfem.MeshHex(mesh.points.T, t.T, sort_t=False)
         elem = skfem.ElementVector(skfem.ElementHex1())
@@ -38,7 +38,9 @@ def test_stiffness_equals_scikit_fem(element):
 
 
 def test_symmetric_and_rigid_modes_in_null_space(any_mesh):
-    k = fem.assemble_stiffness(any_mesh, {0: fem.LinearElastic(E, NU), 1: fem.LinearElastic(3 * E, 0.2)})
+    k = fem.assemble_stiffness(
+        any_mesh, {0: fem.LinearElastic(E, NU), 1: fem.LinearElastic(3 * E, 0.2)}
+    )
     assert sp.linalg.norm(k - k.T) <= 1e-13 * sp.linalg.norm(k)
     phi = fem.rigid_body_modes(any_mesh.points)
     assert np.allclose(phi.T @ phi, np.eye(6), atol=1e-12)

@@ -31,8 +31,9 @@ def test_displacement_patch_test(any_mesh):
     for s in fem.cell_stress(any_mesh, mat, sol.u, at="gauss").values():
         assert np.abs(s - sigma).max() < 1e-10 * np.abs(sigma).max()
     vm = fem.von_mises(sigma)
-    nodal = fem.nodal_average(any_mesh, {k: fem.von_mises(s) for k, s in
-                                         fem.cell_stress(any_mesh, mat, sol.u).items()})
+    nodal = fem.nodal_average(
+        any_mesh, {k: fem.von_mises(s) for k, s in fem.cell_stress(any_mesh, mat, sol.u).items()}
+    )
     assert np.allclose(nodal, vm, rtol=1e-10)
 
 

@@ -1,0 +1,179 @@
+"""The partitioned solve (seed equations 6-8), extra prescribed DOFs and free bodies."""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+import fem
+from tests.conftest import distort
+
+BACKENDS = fem.available_backends()
+
+
+@pytest.fixture
+def body():
+    mesh = distort(
+        fem.box_mesh((1.0, 0.5, 0.5), (4, 2, 2), element="tetra"), 0.1, seed=5, boundary=False
+    )
+    k = fem.assemble_stiffness(mesh, fem.LinearElastic(1e6, 0.3))
+    return mesh, k
+
+
+def _reference(k, f, prescribed, values):
+    """Dense re-partitioned solve of equations (7) and (8)."""
+    kd = k.toarray()
+    n = kd.shape[0]
+    free = np.setdiff1d(np.arange(n), prescribed)
+    u = np.zeros(n)
+    u[prescribed] = values
+    u[free] = np.linalg.solve(
+        kd[np.ix_(free, free)], f[free] - kd[np.ix_(free, prescribed)] @ values
+    )
+    r = kd[prescribed] @ u - f[prescribed]
+    return u, r
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_partitioned_solve_equals_dense_reference(body, backend):
+    mesh, k = body
+    rng = np.random.default_rng(0)
+    fixed = fem.node_dofs(np.flatnonzero(np.isclose(mesh.points[:, 0], mesh.points[:, 0].min())))
+    f = rng.normal(size=k.shape[0])
+    uk = rng.normal(size=fixed.size) * 1e-3
+    sol = fem.StaticSolver(k, fixed, backend=backend).solve(f, uk)
+    u_ref, r_ref = _reference(k, f, fixed, uk)
+    assert np.abs(sol.u - u_ref).max() <= 1e-10 * np.abs(u_ref).max()
+    assert np.abs(sol.reactions[fixed] - r_ref).max() <= 1e-10 * np.abs(r_ref).max()
+    # equation (8) literally: Ru = K21 Uu + K22 Uk (minus the load applied there)
+    free = np.setdiff1d(np.arange(k.shape[0]), fixed)
+    k21, k22 = k[fixed][:, free], k[fixed][:, fixed]
+    assert np.allclose(sol.reactions[fixed], k21 @ sol.u[free] + k22 @ uk - f[fixed])
+    assert np.all(sol.reactions[free] == 0.0)
+
+
+def test_equilibrium_forces_and_moments(body):
+    mesh, k = body
+    rng = np.random.default_rng(1)
+    fixed = fem.node_dofs(np.flatnonzero(np.isclose(mesh.points[:, 0], mesh.points[:, 0].min())))
+    f = fem.point_load(mesh.n_points, rng.integers(0, mesh.n_points, 7), rng.normal(size=(7, 3)))
+    f += fem.gravity_load(mesh, fem.LinearElastic(1e6, 0.3, density=1000.0))
+    sol = fem.StaticSolver(k, fixed).solve(f, rng.normal(size=fixed.size) * 1e-4)
+    total = (sol.reactions + f).reshape(-1, 3)
+    scale = np.abs(f).sum()
+    assert np.abs(total.sum(axis=0)).max() <= 1e-10 * scale
+    moment = np.cross(mesh.points, total).sum(axis=0)
+    assert np.abs(moment).max() <= 1e-10 * scale
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_extra_prescribed_equals_refactoring(body, backend):
+    mesh, k = body
+    rng = np.random.default_rng(2)
+    base = fem.node_dofs(np.flatnonzero(np.isclose(mesh.points[:, 0], mesh.points[:, 0].min())))
+    others = np.setdiff1d(np.arange(k.shape[0]), base)
+    extra = rng.choice(others, 11, replace=False)
+    f = rng.normal(size=k.shape[0])
+    ub, ue = rng.normal(size=base.size) * 1e-3, rng.normal(size=extra.size) * 1e-3
+    solver = fem.StaticSolver(k, base, backend=backend)
+    sol = solver.solve(f, ub, extra=extra, extra_values=ue)
+    both = np.concatenate([base, extra])
+    order = np.argsort(both)
+    ref = fem.StaticSolver(k, both).solve(f, np.concatenate([ub, ue])[order])
+    assert np.abs(sol.u - ref.u).max() <= 1e-10 * np.abs(ref.u).max()
+    assert np.abs(sol.reactions - ref.reactions).max() <= 1e-9 * np.abs(ref.reactions).max()
+    assert np.allclose(sol.extra_reactions, ref.reactions[extra], rtol=1e-9, atol=1e-12)
+    assert np.allclose(sol.u[extra], ue, atol=1e-15)
+    # the compliance of the extra DOFs is cached and reused
+    c1 = solver.compliance(extra)
+    assert solver.compliance(extra) is c1
+
+
+def test_general_constraint_rows(body):
+    """A constraint n . u = g (normal component only) through a sparse E."""
+    mesh, k = body
+    base = fem.node_dofs(np.flatnonzero(np.isclose(mesh.points[:, 0], mesh.points[:, 0].min())))
+    node = int(np.argmax(mesh.points[:, 0]))
+    n = np.array([1.0, 1.0, 0.0]) / np.sqrt(2)
+    e = sp.csr_matrix((n, ([0, 0, 0], 3 * node + np.arange(3))), shape=(1, k.shape[0]))
+    sol = fem.StaticSolver(k, base).solve(extra=e, extra_values=[1e-3])
+    assert n @ sol.u[3 * node : 3 * node + 3] == pytest.approx(1e-3, rel=1e-12)
+    # the reaction acts along n only
+    r = sol.reactions[3 * node : 3 * node + 3]
+    assert np.allclose(r, sol.extra_reactions[0] * n)
+
+
+def test_free_body_balanced_load_and_no_rigid_component():
+    mesh = distort(fem.box_mesh((1.0, 1.0, 1.0), (3, 3, 3)), 0.1, seed=9)
+    k = fem.assemble_stiffness(mesh, fem.LinearElastic(1e6, 0.3))
+    rng = np.random.default_rng(3)
+    f = rng.normal(size=k.shape[0])
+    phi = fem.rigid_body_modes(mesh.points)
+    f -= phi @ (phi.T @ f)  # balance it
+    solver = fem.StaticSolver(k, points=mesh.points)
+    sol = solver.solve(f)
+    assert np.linalg.norm(k @ sol.u - f) <= 1e-10 * np.linalg.norm(f)
+    assert np.abs(phi.T @ sol.u).max() <= 1e-12 * np.abs(sol.u).max()
+    assert np.all(sol.reactions == 0.0)
+
+
+def test_free_body_unbalanced_load_is_refused_with_force_and_moment():
+    mesh = fem.box_mesh((1.0, 1.0, 1.0), (2, 2, 2))
+    k = fem.assemble_stiffness(mesh, fem.LinearElastic(1e6, 0.3))
+    f = fem.point_load(mesh.n_points, [0], [0.0, 0.0, -2.0])
+    with pytest.raises(fem.LoadError, match=r"resultant force \[0, 0, -2\] N, moment"):
+        fem.StaticSolver(k, points=mesh.points).solve(f)
+
+
+def test_free_body_with_extra_constraints_equals_constrained_body():
+    """Extra prescribed DOFs that hold a free body: same as prescribing them outright."""
+    mesh = distort(fem.box_mesh((1.0, 1.0, 1.0), (3, 3, 3)), 0.1, seed=9, boundary=False)
+    k = fem.assemble_stiffness(mesh, fem.LinearElastic(1e6, 0.3))
+    rng = np.random.default_rng(4)
+    bottom = np.flatnonzero(np.isclose(mesh.points[:, 2], mesh.points[:, 2].min()))
+    extra = fem.node_dofs(bottom[:5])
+    g = rng.normal(size=extra.size) * 1e-3
+    f = rng.normal(size=k.shape[0])  # unbalanced: the constraints take the difference
+    sol = fem.StaticSolver(k, points=mesh.points).solve(f, extra=extra, extra_values=g)
+    ref = fem.StaticSolver(k, np.sort(extra)).solve(f, g[np.argsort(extra)])
+    assert np.abs(sol.u - ref.u).max() <= 1e-9 * np.abs(ref.u).max()
+    assert np.abs(sol.reactions - ref.reactions).max() <= 1e-8 * np.abs(ref.reactions).max()
+    assert sol.rigid.shape == (6,)
+
+
+def test_free_body_constraints_that_do_not_hold_it():
+    """One prescribed node cannot hold a body against an unbalanced load."""
+    mesh = fem.box_mesh((1.0, 1.0, 1.0), (2, 2, 2))
+    k = fem.assemble_stiffness(mesh, fem.LinearElastic(1e6, 0.3))
+    f = fem.point_load(mesh.n_points, [26], [1.0, 0.0, 0.0])
+    with pytest.raises(fem.LoadError, match="do not hold the free body"):
+        fem.StaticSolver(k, points=mesh.points).solve(f, extra=fem.node_dofs([0]))
+
+
+def test_solver_errors():
+    mesh = fem.box_mesh((1.0, 1.0, 1.0), (2, 2, 2))
+    k = fem.assemble_stiffness(mesh, fem.LinearElastic(1e6, 0.3))
+    with pytest.raises(fem.SolverError, match="free"):
+        fem.StaticSolver(k)  # no points for a free body
+    with pytest.raises(fem.SolverError, match="unknown linear solver 'mumps'"):
+        fem.StaticSolver(k, [0, 1, 2], backend="mumps")
+    for backend in BACKENDS:
+        with pytest.raises(fem.SolverError, match=r"singular|positive definite"):
+            fem.StaticSolver(k, [0, 1, 2], backend=backend)  # one node cannot hold it
+    s = fem.StaticSolver(k, fem.node_dofs([0, 1, 2, 3, 4, 5, 6, 7, 8]))
+    with pytest.raises(fem.SolverError, match="already prescribed"):
+        s.solve(extra=[0])
+    with pytest.raises(fem.SolverError, match="loads must have shape"):
+        s.solve(np.zeros(5))
+    with pytest.raises(fem.SolverError, match="prescribed values must have shape"):
+        s.solve(values=np.zeros(4))
+
+
+def test_backends_agree(body):
+    if len(BACKENDS) < 2:
+        pytest.skip("one backend only")
+    mesh, k = body
+    rng = np.random.default_rng(6)
+    fixed = fem.node_dofs(np.flatnonzero(np.isclose(mesh.points[:, 0], mesh.points[:, 0].min())))
+    f = rng.normal(size=k.shape[0])
+    u = [fem.StaticSolver(k, fixed, backend=b).solve(f).u for b in BACKENDS]
+    assert np.abs(u[0] - u[1]).max() <= 1e-10 * np.abs(u[0]).max()
