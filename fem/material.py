@@ -76,9 +76,13 @@ class LinearElastic:
 
 
 def materials_by_region(
-    materials: LinearElastic | Mapping[int, LinearElastic], region_ids: NDArray[np.int64]
+    materials: LinearElastic | Mapping[int, LinearElastic | Mapping[str, float]],
+    region_ids: NDArray[np.int64],
 ) -> dict[int, LinearElastic]:
     """Resolve one material or a region mapping against the regions a mesh uses.
+
+    Mapping values are :class:`LinearElastic` or mappings of its fields
+    (``{"E": 1e6, "nu": 0.45}``), validated with the region named in any error.
 
     Raises
     ------
@@ -101,6 +105,13 @@ def materials_by_region(
                 f"{sorted(int(k) for k in materials)})"
             )
         m = materials[r]
+        if isinstance(m, Mapping):
+            try:
+                m = LinearElastic(**m)
+            except MaterialError as exc:
+                raise MaterialError(f"region {r}: {exc}") from None
+            except TypeError as exc:
+                raise MaterialError(f"region {r}: {exc}") from None
         if not isinstance(m, LinearElastic):
             raise MaterialError(f"region {r}: expected a LinearElastic, got {type(m).__name__}")
         out[r] = m

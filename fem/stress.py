@@ -84,24 +84,26 @@ def nodal_average(mesh: Mesh, cell_values: Mapping[str, ArrayLike]) -> NDArray[n
 
     ``cell_values`` maps each cell type to ``(M, ...)``; returns ``(N, ...)``.
     """
-    shape = None
-    acc: NDArray[np.float64] | None = None
+    first = np.asarray(next(iter(cell_values.values())))
+    shape = first.shape[1:]
+    acc = np.zeros((mesh.n_points, int(np.prod(shape, dtype=int))))
     weight = np.zeros(mesh.n_points)
     for kind, conn in mesh.cells.items():
+        if kind not in cell_values:
+            raise ValueError(f"cell values missing for the {kind} cells")
         v = np.asarray(cell_values[kind], dtype=np.float64)
+        if v.shape != (len(conn), *shape):
+            raise ValueError(
+                f"cell values for {kind} must have shape {(len(conn), *shape)}, got {v.shape}"
+            )
         vol = mesh.volumes[kind]
-        if shape is None:
-            shape = v.shape[1:]
-            acc = np.zeros((mesh.n_points, int(np.prod(shape, dtype=int))))
-        flat = (v.reshape(len(conn), -1) * vol[:, None]) / conn.shape[1]
+        k = conn.shape[1]
+        flat = v.reshape(len(conn), -1) * (vol / k)[:, None]
         for j in range(flat.shape[1]):
             acc[:, j] += np.bincount(
-                conn.ravel(), np.repeat(flat[:, j], conn.shape[1]), minlength=mesh.n_points
+                conn.ravel(), np.repeat(flat[:, j], k), minlength=mesh.n_points
             )
-        weight += np.bincount(
-            conn.ravel(), np.repeat(vol / conn.shape[1], conn.shape[1]), minlength=mesh.n_points
-        )
-    assert acc is not None and shape is not None
+        weight += np.bincount(conn.ravel(), np.repeat(vol / k, k), minlength=mesh.n_points)
     with np.errstate(invalid="ignore", divide="ignore"):
         out = acc / weight[:, None]
     out[weight == 0] = 0.0

@@ -94,3 +94,14 @@ def test_elasticity_matrix_matches_lame():
     c = np.linalg.inv(d)
     assert 1 / c[0, 0] == pytest.approx(1.0)
     assert -c[1, 0] / c[0, 0] == pytest.approx(0.25)
+
+
+def test_bad_region_material_names_region_and_value():
+    mesh = fem.box_mesh((1, 1, 1), (2, 2, 2))
+    mesh = fem.Mesh(mesh.points, mesh.cells, {"hexahedron": np.arange(8) % 2})
+    with pytest.raises(fem.MaterialError, match=r"region 1: nu = 0\.7: must be above -1"):
+        fem.assemble_stiffness(mesh, {0: {"E": 1e6, "nu": 0.3}, 1: {"E": 1e6, "nu": 0.7}})
+    with pytest.raises(fem.MaterialError, match=r"region 0: .*unexpected keyword argument .G."):
+        fem.assemble_stiffness(mesh, {0: {"E": 1e6, "G": 0.3}, 1: {"E": 1e6, "nu": 0.3}})
+    k = fem.assemble_stiffness(mesh, {0: {"E": 1e6, "nu": 0.3}, 1: fem.LinearElastic(1e6, 0.3)})
+    assert k.shape == (81, 81)
