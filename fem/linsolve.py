@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import importlib.util
 import logging
+import os
 from typing import Protocol
 
 import numpy as np
@@ -49,7 +50,7 @@ class _Pardiso:
         if not np.diff(self._a.indptr).all():
             row = int(np.flatnonzero(np.diff(self._a.indptr) == 0)[0])
             raise SolverError(f"matrix is singular: row {row} is empty (an unconnected DOF?)")
-        self._s = pypardiso.PyPardisoSolver(mtype=2)
+        self._s = _new_pardiso(pypardiso)
         self._s.set_phase(12)
         try:
             self._s._call_pardiso(self._a, np.zeros((self.n, 1)))
@@ -73,6 +74,19 @@ class _Pardiso:
                 s.free_memory(everything=True)
             except Exception:  # never raise from a destructor
                 pass
+
+
+def _new_pardiso(pypardiso: object) -> object:
+    """A PyPardisoSolver for real SPD matrices (mtype 2).
+
+    pypardiso searches the environment tree for the MKL runtime on every construction
+    (about 0.4 s); the path found first is handed to later ones via PYPARDISO_MKL_RT.
+    """
+    solver = pypardiso.PyPardisoSolver(mtype=2)  # type: ignore[attr-defined]
+    name = getattr(solver.libmkl, "_name", None)
+    if name and "PYPARDISO_MKL_RT" not in os.environ:
+        os.environ["PYPARDISO_MKL_RT"] = name
+    return solver
 
 
 class _SuperLU:

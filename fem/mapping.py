@@ -56,7 +56,7 @@ def jacobians(
     ndarray, shape (n_elements, q, 3, 3)
     """
     dn = element.grad(element.points if xi is None else xi)
-    return np.einsum("eni,qnj->eqij", coords, dn, optimize=True)
+    return np.matmul(coords.transpose(0, 2, 1)[:, None], dn[None])
 
 
 def gradients(
@@ -79,9 +79,9 @@ def gradients(
         Jacobian determinants (signed: never made absolute here).
     """
     dn = element.grad(element.points)
-    jac = np.einsum("eni,qnj->eqij", coords, dn, optimize=True)
+    jac = np.matmul(coords.transpose(0, 2, 1)[:, None], dn[None])  # (E, q, 3, 3)
     detj = det3(jac)
     with np.errstate(divide="ignore", invalid="ignore"):
         inv = inv3(jac, detj)
-    grad = np.einsum("qnj,eqji->eqni", dn, inv, optimize=True)
+    grad = np.matmul(dn[None], inv)  # (E, q, n, 3)
     return grad, detj
