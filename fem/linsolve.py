@@ -8,9 +8,11 @@ definite matrices, multithreaded, METIS ordering); the default where it is insta
 
 from __future__ import annotations
 
+import glob
 import importlib.util
 import logging
 import os
+import sys
 from typing import Protocol
 
 import numpy as np
@@ -126,9 +128,25 @@ class _SuperLU:
 BACKENDS: dict[str, type] = {"pardiso": _Pardiso, "superlu": _SuperLU}
 
 
+def _locate_mkl_runtime() -> None:
+    """Point pypardiso at the MKL runtime of this environment, if it is where pip puts it.
+
+    Otherwise pypardiso walks the whole environment tree with a recursive glob on import
+    and on every solver it creates (about 0.4 s each).
+    """
+    if "PYPARDISO_MKL_RT" in os.environ:
+        return
+    for prefix in dict.fromkeys((sys.prefix, sys.base_prefix)):
+        found = sorted(glob.glob(os.path.join(prefix, "lib", "libmkl_rt.so*")), key=len)
+        if found:
+            os.environ["PYPARDISO_MKL_RT"] = found[0]
+            return
+
+
 def available_backends() -> list[str]:
     """Names of the backends usable here, in order of preference."""
     out = []
+    _locate_mkl_runtime()
     if importlib.util.find_spec("pypardiso") is not None:
         try:
             import pypardiso  # noqa: F401
