@@ -19,7 +19,6 @@ reactions vanish for a balanced load) and the rigid part of the result projected
 from __future__ import annotations
 
 import logging
-from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,6 +35,8 @@ log = logging.getLogger(__name__)
 
 #: Columns of back-solves done at once when building a Schur complement.
 BLOCK = 256
+#: Constraint rows whose mutual compliance is kept (a dense square of this size at most).
+ROW_CACHE = 8192
 
 
 def rigid_body_modes(points: ArrayLike) -> NDArray[np.float64]:
@@ -183,7 +184,8 @@ class StaticSolver:
             self._k12 = k[self.free][:, pres]
             self._fact = factorize(self._k11, backend)
         self.backend = self._fact.backend
-        self._schur: OrderedDict[bytes, tuple[NDArray, NDArray | None]] = OrderedDict()
+        self.n_back_solves = 0
+        self._reset_rows()
 
     # --- the inverse on the free DOFs ----------------------------------------------
 
@@ -223,31 +225,61 @@ class StaticSolver:
     def compliance(self, extra: ArrayLike | sp.spmatrix) -> NDArray[np.float64]:
         """The dense compliance ``E K11^-1 E^T`` (free body: ``E K^+ E^T``) of constraints.
 
-        ``extra`` is a list of DOFs or a sparse ``(m, n)`` constraint matrix. Cached for
-        the last few constraint sets.
+        ``extra`` is a list of DOFs or a sparse ``(m, n)`` constraint matrix. The
+        compliance of every row met is kept: only new rows cost back-solves.
         """
         e = self._constraint_matrix(extra)
         return self._schur_of(e)[0]
 
     def _schur_of(self, e: sp.csr_matrix) -> tuple[NDArray, NDArray | None]:
-        key = _key(e)
-        if key in self._schur:
-            self._schur.move_to_end(key)
-            return self._schur[key]
-        ef = e[:, self.free]
+        """Compliance of constraint rows, with back-solves only for rows not seen before.
+
+        The compliance between two rows depends on those rows alone, so it is kept for
+        every row met so far: a contact set that gains or loses a few nodes costs a few
+        back-solves, not one per contact DOF.
+        """
+        ef = sp.csr_matrix(e[:, self.free])
+        ef.sort_indices()
         m = ef.shape[0]
-        s = np.empty((m, m))
-        eft = ef.T.tocsc()
-        for j in range(0, m, BLOCK):
-            cols = eft[:, j : j + BLOCK].toarray()
-            z = self.apply_inverse(cols)
-            s[:, j : j + BLOCK] = ef @ z
+        keys = [
+            ef.indices[ef.indptr[i] : ef.indptr[i + 1]].tobytes()
+            + ef.data[ef.indptr[i] : ef.indptr[i + 1]].tobytes()
+            for i in range(m)
+        ]
+        new = list(dict.fromkeys(k for k in keys if k not in self._row_index))
+        if new:
+            if len(self._row_index) + len(new) > ROW_CACHE:
+                self._reset_rows()
+                new = list(dict.fromkeys(keys))
+            first = {k: i for i, k in reversed(list(enumerate(keys)))}
+            rows = ef[[first[k] for k in new]]
+            old = len(self._row_index)
+            self._rows = rows if self._rows is None else sp.vstack([self._rows, rows]).tocsr()
+            total = old + len(new)
+            if self._gram.shape[0] < total:
+                grown = np.zeros((max(total, 2 * self._gram.shape[0]),) * 2)
+                grown[:old, :old] = self._gram[:old, :old]
+                self._gram = grown
+            rows_t = rows.T.tocsc()
+            for j in range(0, len(new), BLOCK):
+                z = self.apply_inverse(rows_t[:, j : j + BLOCK].toarray())
+                self.n_back_solves += z.shape[1]
+                cross = self._rows @ z  # (total, block)
+                cols = slice(old + j, old + j + z.shape[1])
+                self._gram[:total, cols] = cross
+                self._gram[cols, :total] = cross.T
+            for i, k in enumerate(new):
+                self._row_index[k] = old + i
+        idx = np.array([self._row_index[k] for k in keys], dtype=np.int64)
+        s = self._gram[np.ix_(idx, idx)]
         s = 0.5 * (s + s.T)
         e_phi = (e @ self.modes) if self.free_body else None
-        self._schur[key] = (s, e_phi)
-        if len(self._schur) > 4:
-            self._schur.popitem(last=False)
         return s, e_phi
+
+    def _reset_rows(self) -> None:
+        self._row_index: dict[bytes, int] = {}
+        self._rows: sp.csr_matrix | None = None
+        self._gram = np.zeros((0, 0))
 
     # --- the solve -------------------------------------------------------------------
 
@@ -342,13 +374,6 @@ class StaticSolver:
                 f"prescribed values must have shape ({npres},) or ({self.n},), got {v.shape}"
             )
         return v
-
-
-def _key(e: sp.csr_matrix) -> bytes:
-    e.sort_indices()
-    return (
-        np.int64(e.shape[0]).tobytes() + e.indptr.tobytes() + e.indices.tobytes() + e.data.tobytes()
-    )
 
 
 def _spd_solve(s: NDArray, rhs: NDArray) -> NDArray:

@@ -83,9 +83,17 @@ def test_extra_prescribed_equals_refactoring(body, backend):
     assert np.abs(sol.reactions - ref.reactions).max() <= 1e-9 * np.abs(ref.reactions).max()
     assert np.allclose(sol.extra_reactions, ref.reactions[extra], rtol=1e-9, atol=1e-12)
     assert np.allclose(sol.u[extra], ue, atol=1e-15)
-    # the compliance of the extra DOFs is cached and reused
+    # the compliance of rows already met is kept: no back-solve for a known set, one
+    # per new row for a set that grows
+    solves = solver.n_back_solves
     c1 = solver.compliance(extra)
-    assert solver.compliance(extra) is c1
+    assert solver.n_back_solves == solves
+    more = np.concatenate([extra, rng.choice(np.setdiff1d(others, extra), 3, replace=False)])
+    c2 = solver.compliance(more)
+    assert solver.n_back_solves == solves + 3
+    assert np.allclose(c2[:11, :11], c1, rtol=1e-14, atol=0)
+    fresh = fem.StaticSolver(k, base, backend=backend).compliance(more)
+    assert np.abs(c2 - fresh).max() <= 1e-12 * np.abs(fresh).max()
 
 
 def test_general_constraint_rows(body):
@@ -177,3 +185,16 @@ def test_backends_agree(body):
     f = rng.normal(size=k.shape[0])
     u = [fem.StaticSolver(k, fixed, backend=b).solve(f).u for b in BACKENDS]
     assert np.abs(u[0] - u[1]).max() <= 1e-10 * np.abs(u[0]).max()
+
+
+def test_row_cache_overflow_starts_afresh(body, monkeypatch):
+    mesh, k = body
+    monkeypatch.setattr(fem.statics, "ROW_CACHE", 10)
+    base = fem.node_dofs(np.flatnonzero(np.isclose(mesh.points[:, 0], mesh.points[:, 0].min())))
+    others = np.setdiff1d(np.arange(k.shape[0]), base)
+    solver = fem.StaticSolver(k, base)
+    a = solver.compliance(others[:8])
+    b = solver.compliance(others[4:12])  # 4 new rows overflow the cache of 10
+    ref = fem.StaticSolver(k, base).compliance(others[4:12])
+    assert np.abs(b - ref).max() <= 1e-12 * np.abs(ref).max()
+    assert np.allclose(a[4:, 4:], b[:4, :4], rtol=1e-12)
