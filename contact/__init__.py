@@ -8,6 +8,7 @@ build its skin (metaballs) and bones, and :func:`load_hand` reads the shipped me
 
 from __future__ import annotations
 
+from .ball import Ball, BallError, BallSpec, make_ball
 from .bones import bone_surfaces
 from .errors import RigError
 from .hand import Hand, load_hand
@@ -15,11 +16,15 @@ from .metaballs import skin_surface
 from .skeleton import Skeleton, load_skeleton
 
 __all__ = [
+    "Ball",
+    "BallError",
+    "BallSpec",
     "Hand",
     "RigError",
     "Skeleton",
     "bone_surfaces",
     "load_hand",
     "load_skeleton",
+    "make_ball",
     "skin_surface",
 ]

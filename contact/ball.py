@@ -1,0 +1,265 @@
+"""The ball: solid, or a rubber envelope under internal pressure, as tets or 8-node bricks.
+
+A :class:`BallSpec` says what ball a scene wants (the ``[ball]`` table of a scene file);
+:func:`make_ball` meshes it, or reads and checks a mesh file, and returns a :class:`Ball`:
+the mesh, its material, its inner surface (where the pressure acts), its outer surface
+(what can touch) and the pressure load. Inner and outer faces are told apart by the
+radius of their centroids against the mid-wall radius.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+import fem
+
+from .errors import ContactError
+
+__all__ = ["RADIUS_TOL", "Ball", "BallError", "BallSpec", "make_ball"]
+
+#: Boundary nodes of a ball read from a file must lie within this fraction of the radius
+#: of their sphere (and within a quarter of a hollow ball's wall thickness).
+RADIUS_TOL = 0.02
+_ICO_EDGE = 4.0 / math.sqrt(10.0 + 2.0 * math.sqrt(5.0))  # icosahedron edge / circumradius
+
+
+class BallError(ContactError, ValueError):
+    """A ball specification or mesh file is invalid; one line naming the field or file."""
+
+
+def _number(name: str, value: object) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise BallError(f"ball.{name} = {value!r}: must be a number")
+    if not math.isfinite(float(value)):
+        raise BallError(f"ball.{name} = {value!r}: must be finite")
+    return float(value)
+
+
+@dataclass(frozen=True)
+class BallSpec:
+    """A ball, validated on construction (SI units).
+
+    Parameters
+    ----------
+    radius : float
+        Outer radius (m), positive.
+    kind : {"solid", "hollow"}
+        A solid ball, or a hollow envelope of wall ``thickness`` under internal ``pressure``.
+    thickness : float, optional
+        Wall thickness (m) of a hollow ball, in (0, radius); not given for a solid one.
+    pressure : float
+        Internal pressure (Pa) on a hollow ball's inner surface; 0 for a solid one.
+    element : {"tet", "hex"}
+        Tetrahedra (pytetwild) or 8-node bricks (cubed sphere). Ignored for a mesh file.
+    mesh_size : float, optional
+        Target element edge length (m), in (0, radius]. Exactly one of ``mesh_size`` and
+        ``mesh`` is given.
+    mesh : str or path-like, optional
+        A volume mesh file to use instead; it must be this ball (see :func:`make_ball`).
+    center : tuple of 3 floats
+        Centre (m).
+    E, nu, density : float
+        Young's modulus (Pa), Poisson's ratio and density (kg/m^3).
+
+    Raises
+    ------
+    BallError
+        Naming the field and value, e.g. ``ball.thickness = 0.05: must be below the
+        radius 0.035``.
+    """
+
+    radius: float
+    kind: str = "solid"
+    thickness: float | None = None
+    pressure: float = 0.0
+    element: str = "tet"
+    mesh_size: float | None = None
+    mesh: str | os.PathLike[str] | None = None
+    center: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    E: float = 1.0e6
+    nu: float = 0.45
+    density: float = 1100.0
+
+    def __post_init__(self) -> None:
+        r = _number("radius", self.radius)
+        if r <= 0:
+            raise BallError(f"ball.radius = {self.radius!r}: must be positive")
+        for name, allowed in (("kind", ("solid", "hollow")), ("element", ("tet", "hex"))):
+            if getattr(self, name) not in allowed:
+                raise BallError(f"ball.{name} = {getattr(self, name)!r}: must be one of {allowed}")
+        p = _number("pressure", self.pressure)
+        if self.kind == "solid":
+            if self.thickness is not None:
+                raise BallError(f"ball.thickness = {self.thickness!r}: only a hollow ball has one")
+            if p != 0.0:
+                raise BallError(f"ball.pressure = {self.pressure!r}: only a hollow ball has one")
+        else:
+            if self.thickness is None:
+                raise BallError("ball.thickness: a hollow ball needs a wall thickness")
+            t = _number("thickness", self.thickness)
+            if not 0 < t < r:
+                why = "must be positive" if t <= 0 else f"must be below the radius {r}"
+                raise BallError(f"ball.thickness = {self.thickness!r}: {why}")
+        if (self.mesh_size is None) == (self.mesh is None):
+            raise BallError(
+                f"ball.mesh_size = {self.mesh_size!r}, ball.mesh = {self.mesh!r}: give exactly one"
+            )
+        if self.mesh_size is not None:
+            h = _number("mesh_size", self.mesh_size)
+            if not 0 < h <= r:
+                raise BallError(
+                    f"ball.mesh_size = {self.mesh_size!r}: must be positive and at most the "
+                    f"radius {r}"
+                )
+        c = np.asarray(self.center, dtype=object).ravel()
+        if c.shape != (3,):
+            raise BallError(f"ball.center = {self.center!r}: must be 3 numbers")
+        object.__setattr__(self, "center", tuple(_number("center", v) for v in c))
+        try:
+            self.material  # noqa: B018  (validates E, nu and density)
+        except fem.MaterialError as exc:
+            raise BallError(f"ball.material.{exc}") from None
+
+    @property
+    def inner_radius(self) -> float:
+        """Radius of the cavity (m); 0 for a solid ball."""
+        return self.radius - self.thickness if self.kind == "hollow" else 0.0  # type: ignore[operator]
+
+    @property
+    def material(self) -> fem.LinearElastic:
+        """The ball's material."""
+        return fem.LinearElastic(self.E, self.nu, self.density)
+
+
+@dataclass(frozen=True)
+class Ball:
+    """A meshed ball.
+
+    Attributes
+    ----------
+    spec : BallSpec
+    mesh : fem.Mesh
+    material : fem.LinearElastic
+    inner : fem.BoundaryFaces
+        Faces of the cavity, oriented into it (empty for a solid ball).
+    outer : fem.BoundaryFaces
+        Faces of the outer sphere: the ones that can touch.
+    outer_nodes : ndarray of int
+        Sorted nodes of ``outer``.
+    loads : ndarray, shape (3N,)
+        Nodal forces of the internal pressure (zero for a solid ball); self-balanced.
+    """
+
+    spec: BallSpec
+    mesh: fem.Mesh
+    material: fem.LinearElastic
+    inner: fem.BoundaryFaces
+    outer: fem.BoundaryFaces
+    outer_nodes: NDArray[np.int64]
+    loads: NDArray[np.float64]
+
+
+def _refinement(radius: float, size: float) -> int:
+    """Icosphere subdivisions whose edges are no longer than ``size`` (2 to 6)."""
+    return min(6, max(2, math.ceil(math.log2(_ICO_EDGE * radius / size))))
+
+
+def _generate(spec: BallSpec) -> fem.Mesh:
+    r, a, h, c = spec.radius, spec.inner_radius, float(spec.mesh_size), spec.center  # type: ignore[arg-type]
+    if spec.element == "hex":
+        if spec.kind == "solid":
+            return fem.ball_mesh(r, h, divisions=math.ceil(0.5 * math.pi * r / h - 1e-9), center=c)
+        return fem.shell_mesh(a, r, h, layers=max(2, math.ceil((r - a) / h - 1e-9)), center=c)
+    pts, tri = fem.sphere_surface(r, c, _refinement(r, h))
+    if spec.kind == "hollow":
+        if h > 0.5 * (r - a):
+            warnings.warn(
+                f"ball.mesh_size = {h} exceeds half the wall thickness ({r - a:.6g} / 2): the "
+                "tet wall may be one element thick and too stiff in bending",
+                stacklevel=3,
+            )
+        p2, t2 = fem.sphere_surface(a, c, _refinement(a, h))
+        pts, tri = np.concatenate([pts, p2]), np.concatenate([tri, t2[:, ::-1] + len(pts)])
+    return fem.tetrahedralize((pts, tri), h)
+
+
+def _split(mesh: fem.Mesh, spec: BallSpec) -> tuple[fem.BoundaryFaces, fem.BoundaryFaces]:
+    """Inner and outer boundary faces, by centroid radius against the mid-wall radius."""
+    mid = 0.5 * (spec.radius + spec.inner_radius) if spec.kind == "hollow" else 0.0
+    c = np.asarray(spec.center)
+    rad = {
+        k: np.linalg.norm(x - c, axis=1)
+        for k, x in mesh.face_centroids(mesh.boundary.faces).items()
+    }
+    inner = mesh.boundary.subset({k: v < mid for k, v in rad.items()})
+    return inner, mesh.boundary.subset({k: v >= mid for k, v in rad.items()})
+
+
+def _check_file(mesh: fem.Mesh, spec: BallSpec, path: Path) -> None:
+    """Refuse a mesh that is not this ball: boundary node radii off their sphere."""
+    r, a = spec.radius, spec.inner_radius
+    tol = RADIUS_TOL * r if spec.kind == "solid" else min(RADIUS_TOL * r, 0.25 * (r - a))
+    nodes = mesh.boundary.nodes
+    rad = np.linalg.norm(mesh.points[nodes] - np.asarray(spec.center), axis=1)
+    out = rad >= 0.5 * (r + a) if spec.kind == "hollow" else np.ones(len(rad), bool)
+    where = f"ball.mesh = '{path}'"
+    if not out.any() or np.abs(rad[out] - r).max() > tol:
+        lo, hi = (rad[out].min(), rad[out].max()) if out.any() else (rad.min(), rad.max())
+        raise BallError(
+            f"{where}: not a {spec.kind} ball of radius {r} about {list(spec.center)}: "
+            f"{'outer ' if spec.kind == 'hollow' else ''}boundary node radii range from "
+            f"{lo:.6g} to {hi:.6g} (tolerance {tol:.3g})"
+        )
+    if spec.kind == "hollow" and (out.all() or np.abs(rad[~out] - a).max() > tol):
+        got = "none" if out.all() else f"{rad[~out].min():.6g} to {rad[~out].max():.6g}"
+        raise BallError(
+            f"{where}: no inner surface of radius {a} (wall {spec.thickness}): inner boundary "
+            f"node radii {got} (tolerance {tol:.3g})"
+        )
+
+
+def make_ball(spec: BallSpec) -> Ball:
+    """Mesh a ball, or read and check its mesh file, and set up its pressure load.
+
+    Bricks come from :func:`fem.ball_mesh` (solid; ``ceil(pi R / (2 h))`` cells along
+    each cube edge, so that surface edges are about ``h = mesh_size`` long) or
+    :func:`fem.shell_mesh` (hollow, with ``ceil(thickness / h)``, but at least 2,
+    elements through the wall, so that the wall can bend). Tets come from
+    :func:`fem.tetrahedralize` of an icosphere whose edges are no longer than ``h``
+    (hollow: with the inner sphere flipped inward to make the cavity); a hollow tet ball
+    warns when ``h`` exceeds half the wall thickness. A mesh file is read with
+    :func:`fem.read_mesh` and must be the ball of the spec: its outer (and for a hollow
+    ball its inner) boundary nodes within :data:`RADIUS_TOL` of the radius about the
+    centre.
+
+    Parameters
+    ----------
+    spec : BallSpec
+
+    Returns
+    -------
+    Ball
+
+    Raises
+    ------
+    BallError
+        A mesh file that is not this ball, naming the file and the radii measured.
+    fem.MeshError
+        A mesh file that cannot be read, or a failed meshing.
+    """
+    if spec.mesh is not None:
+        path = Path(spec.mesh)
+        mesh = fem.read_mesh(path)
+        _check_file(mesh, spec, path)
+    else:
+        mesh = _generate(spec)
+    inner, outer = _split(mesh, spec)
+    loads = fem.pressure_load(mesh, inner, spec.pressure)
+    return Ball(spec, mesh, spec.material, inner, outer, outer.nodes, loads)
