@@ -12,9 +12,6 @@ palm 0, thumb 1, index 2, ...), and its nearest bone.
 from __future__ import annotations
 
 import logging
-import os
-import tempfile
-import warnings
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
@@ -66,8 +63,8 @@ def tetrahedralize_flesh(
     edge_length : float
         Target tetrahedron edge length (m).
     **tetwild_options
-        Passed to ``pytetwild.tetrahedralize`` (e.g. ``epsilon``, ``stop_energy``,
-        ``num_opt_iter``, ``coarsen``); without any, :func:`fem.tetrahedralize` does the job.
+        Passed through :func:`fem.tetrahedralize` to ``pytetwild.tetrahedralize`` (e.g.
+        ``epsilon``, ``stop_energy``, ``num_opt_iter``, ``coarsen``).
 
     Returns
     -------
@@ -75,32 +72,9 @@ def tetrahedralize_flesh(
         Positively oriented tetrahedra, region 0. Not deterministic (fTetWild).
     """
     points, triangles = merged_surface(skin, bones)
-    if not tetwild_options:
-        return fem.tetrahedralize((points, triangles), edge_length)
-    import pytetwild
-
-    fem.check_surface(points, triangles, source="skin and bones")
-    cwd = os.getcwd()
-    with tempfile.TemporaryDirectory(prefix="tetwild-") as scratch:
-        os.chdir(scratch)  # fTetWild writes a scratch file into the working directory
-        try:
-            p, t = pytetwild.tetrahedralize(
-                points,
-                triangles.astype(np.int32),
-                edge_length_abs=float(edge_length),
-                **tetwild_options,
-            )
-        finally:
-            os.chdir(cwd)
-    p, t = np.asarray(p, np.float64), np.asarray(t, np.int64).reshape(-1, 4)
-    x = p[t]
-    vol6 = np.einsum("ij,ij->i", np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), x[:, 3] - x[:, 0])
-    t[vol6 < 0] = t[vol6 < 0][:, [0, 2, 1, 3]]
-    sliver = np.abs(vol6) <= 1e-12 * np.ptp(x, axis=1).max(axis=1) ** 3
-    if sliver.any():
-        warnings.warn(f"dropped {int(sliver.sum())} zero-volume tetrahedra", stacklevel=2)
-        t = t[~sliver]
-    return fem.Mesh(p, {"tetra": t}).remove_unused_points()
+    return fem.tetrahedralize(
+        (points, triangles), edge_length, **tetwild_options
+    ).remove_unused_points()
 
 
 def _pieces(n_points: int, faces: NDArray[np.int64]) -> NDArray[np.int64]:

@@ -213,6 +213,7 @@ def tetrahedralize(
     *,
     sizing_field: pyvista.UnstructuredGrid | tuple | None = None,
     optimize: bool = True,
+    **tetwild_options: Any,
 ) -> Mesh:
     """Fill a closed triangle surface with positively oriented tetrahedra (pytetwild).
 
@@ -229,6 +230,10 @@ def tetrahedralize(
         or ``(points, tets, values)``; needs ``optimize=True``.
     optimize : bool
         Let fTetWild improve element quality (slower, better elements).
+    **tetwild_options
+        Passed on to ``pytetwild.tetrahedralize``: ``epsilon`` (envelope size relative to
+        the bounding box, default 1e-3), ``stop_energy``, ``num_opt_iter``, ``coarsen``...
+        A looser envelope and fewer optimisation passes make large surfaces much faster.
 
     Returns
     -------
@@ -262,6 +267,7 @@ def tetrahedralize(
                     edge_length_abs=float(edge_length),
                     optimize=optimize,
                     **sizing,
+                    **tetwild_options,
                 )
             finally:
                 os.chdir(cwd)

@@ -215,3 +215,11 @@ def test_tetrahedralize_leaves_no_file_behind(tmp_path, monkeypatch):
     fem.tetrahedralize(fem.sphere_surface(1.0, refinement=2), 0.5, optimize=False)
     assert list(tmp_path.iterdir()) == []
     assert Path.cwd() == tmp_path
+
+
+def test_tetwild_options_pass_through():
+    surf = fem.sphere_surface(1.0, refinement=2)
+    m = fem.tetrahedralize(surf, 0.5, epsilon=2e-3, num_opt_iter=5, stop_energy=20.0)
+    assert m.volume == pytest.approx(4 / 3 * math.pi, rel=0.1)
+    with pytest.raises(fem.MeshError, match="pytetwild failed"):
+        fem.tetrahedralize(surf, 0.5, no_such_option=1)
