@@ -138,8 +138,11 @@ def assemble_stiffness(
             kb = element_blocks(mesh.points[c], elem, lam[s : s + CHUNK], mu[s : s + CHUNK])
             kb = kb.reshape(-1, 9)
             idx = inverse[pos : pos + len(kb)]
-            for j in range(9):
-                blocks[:, j] += np.bincount(idx, kb[:, j], minlength=len(pairs))
+            # one scatter over only the pairs this chunk touches: its cost follows the
+            # chunk, not the whole pattern
+            lo, hi = int(idx.min()), int(idx.max()) + 1
+            flat = ((idx - lo)[:, None] * 9 + np.arange(9)).ravel()
+            blocks[lo:hi] += np.bincount(flat, kb.ravel(), minlength=(hi - lo) * 9).reshape(-1, 9)
             pos += len(kb)
     rows = pairs // n_nodes
     indptr = np.zeros(n_nodes + 1, dtype=np.int64)
