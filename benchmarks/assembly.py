@@ -15,7 +15,6 @@ from the largest size it ran, would pass :data:`SKFEM_TIME_LIMIT` or
 
 from __future__ import annotations
 
-import argparse
 import cProfile
 import gc
 import io
@@ -423,16 +422,3 @@ def _write_report(folder: Path, info: dict, rows: list[dict], profiles: list, qu
             )
         )
     write_markdown(folder / "assembly.md", "Stiffness assembly: fem vs scikit-fem", info, sections)
-
-
-def main(argv: list[str] | None = None) -> None:
-    """Command line: ``python -m benchmarks.assembly [--quick] [--out DIR]``."""
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="tiny sizes, seconds")
-    ap.add_argument("--out", help="results folder")
-    args = ap.parse_args(argv)
-    run(args.quick, args.out)
-
-
-if __name__ == "__main__":
-    main()

@@ -15,7 +15,6 @@ with PARDISO, with its peak memory.
 
 from __future__ import annotations
 
-import argparse
 import gc
 import importlib.util
 import time
@@ -421,16 +420,3 @@ def _write_report(
     write_markdown(
         folder / "linear_solve.md", "Sparse direct solvers: fem vs scipy", info, sections
     )
-
-
-def main(argv: list[str] | None = None) -> None:
-    """Command line: ``python -m benchmarks.linear_solve [--quick] [--out DIR]``."""
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="tiny sizes, seconds")
-    ap.add_argument("--out", help="results folder")
-    args = ap.parse_args(argv)
-    run(args.quick, args.out)
-
-
-if __name__ == "__main__":
-    main()

@@ -11,7 +11,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from .elements import ELEMENTS
@@ -110,24 +112,14 @@ def merge_points(
     points: NDArray[np.float64], cells: dict[str, NDArray[np.int64]], tol: float
 ) -> tuple[NDArray[np.float64], dict[str, NDArray[np.int64]]]:
     """Merge points closer than ``tol`` and renumber cells (first occurrence kept)."""
-    tree = cKDTree(points)
-    pairs = tree.query_pairs(tol, output_type="ndarray")
-    rep = np.arange(len(points))
-    if len(pairs):
-        # union-find over the pairs (few, along block seams)
-        parent = np.arange(len(points))
-
-        def find(i: int) -> int:
-            while parent[i] != i:
-                parent[i] = parent[parent[i]]
-                i = parent[i]
-            return i
-
-        for a, b in pairs:
-            ra, rb = find(int(a)), find(int(b))
-            if ra != rb:
-                parent[max(ra, rb)] = min(ra, rb)
-        rep = np.array([find(i) for i in range(len(points))])
+    pairs = cKDTree(points).query_pairs(tol, output_type="ndarray")
+    n = len(points)
+    graph = sp.coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    # each group of coincident points is represented by its first member
+    first = np.full(label.max() + 1, n, dtype=np.int64)
+    np.minimum.at(first, label, np.arange(n))
+    rep = first[label]
     uniq, new = np.unique(rep, return_inverse=True)
     return points[uniq], {k: new[c] for k, c in cells.items()}
 

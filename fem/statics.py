@@ -180,8 +180,10 @@ class StaticSolver:
             self._fact = factorize(k[self._inner][:, self._inner], backend)
         else:
             self.modes = np.zeros((n, 0))
-            self._k11 = k[self.free][:, self.free]
-            self._k12 = k[self.free][:, pres]
+            k_free = k[self.free]
+            self._k11 = k_free[:, self.free]
+            self._k12 = k_free[:, pres]
+            self._k_pres = k[pres]  # rows K21 | K22 of equation (8)
             self._fact = factorize(self._k11, backend)
         self.backend = self._fact.backend
         self.n_back_solves = 0
@@ -329,6 +331,7 @@ class StaticSolver:
             rf = rf - self._k12 @ uk
         rigid = np.zeros(0)
         lam = np.zeros(0)
+        e = None
         if extra is None or (not sp.issparse(extra) and np.size(extra) == 0):
             if self.free_body:
                 check_balance(f, self.points)
@@ -354,10 +357,10 @@ class StaticSolver:
                 u[self.free] = self.apply_inverse(rf - ef.T @ lam)
         reactions = np.zeros(n)
         if self.prescribed.size:
-            kr = self.k[self.prescribed]
+            kr = self._k_pres
             reactions[self.prescribed] = kr @ u - f[self.prescribed]  # equation (8)
-        if lam.size:
-            reactions += -(self._constraint_matrix(extra).T @ lam)
+        if e is not None and lam.size:
+            reactions -= e.T @ lam
         if self.free_body and rigid.size == 0:
             rigid = np.zeros(6)
         return StaticSolution(u=u, reactions=reactions, extra_reactions=-lam, rigid=rigid)

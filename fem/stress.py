@@ -16,15 +16,22 @@ from .mesh import Mesh
 __all__ = ["cell_stress", "gauss_strain", "nodal_average", "stress_from_strain", "von_mises"]
 
 
-def gauss_strain(mesh: Mesh, u: ArrayLike) -> dict[str, NDArray[np.float64]]:
-    """Small strain tensor at every Gauss point: per type ``(M, q, 3, 3)``."""
+def _strain_and_weights(
+    mesh: Mesh, u: ArrayLike
+) -> dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]]:
+    """Per type: strain at the Gauss points ``(M, q, 3, 3)`` and their weights ``(M, q)``."""
     uv = np.asarray(u, dtype=np.float64).reshape(-1, 3)
     out = {}
     for kind, conn in mesh.cells.items():
-        grad, _ = gradients(mesh.points[conn], ELEMENTS[kind])
+        grad, detj = gradients(mesh.points[conn], ELEMENTS[kind])
         du = np.einsum("eqaj,eai->eqij", grad, uv[conn])  # du_i/dx_j
-        out[kind] = 0.5 * (du + du.swapaxes(-1, -2))
+        out[kind] = (0.5 * (du + du.swapaxes(-1, -2)), detj * ELEMENTS[kind].weights)
     return out
+
+
+def gauss_strain(mesh: Mesh, u: ArrayLike) -> dict[str, NDArray[np.float64]]:
+    """Small strain tensor at every Gauss point: per type ``(M, q, 3, 3)``."""
+    return {kind: eps for kind, (eps, _) in _strain_and_weights(mesh, u).items()}
 
 
 def stress_from_strain(
@@ -63,17 +70,15 @@ def cell_stress(
     """
     if at not in ("mean", "gauss"):
         raise ValueError(f"at must be 'mean' or 'gauss', got {at!r}")
-    eps = gauss_strain(mesh, u)
+    strains = _strain_and_weights(mesh, u)
     fields = lame_fields(mesh, materials)
     out = {}
-    for kind, e in eps.items():
+    for kind, (e, w) in strains.items():
         lam, mu = fields[kind]
         s = stress_from_strain(e, lam[:, None], mu[:, None])
         if initial is not None and kind in initial:
             s = s + np.asarray(initial[kind], dtype=np.float64)[:, None]
         if at == "mean":
-            _, detj = gradients(mesh.points[mesh.cells[kind]], ELEMENTS[kind])
-            w = detj * ELEMENTS[kind].weights
             s = np.einsum("eq,eqij->eij", w, s) / w.sum(axis=1)[:, None, None]
         out[kind] = s
     return out
