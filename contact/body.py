@@ -31,6 +31,12 @@ class ElasticBody:
         Known nodal loads (pressure, gravity); zero by default.
     backend : str
         Linear solver (see :func:`fem.factorize`).
+    contact_faces : fem.BoundaryFaces, optional
+        The faces that can touch (a hollow ball's outer sphere, a hand's skin); default:
+        the whole boundary less the faces whose nodes are all prescribed (bone holes).
+    supports : mapping of str to array_like of int, optional
+        Named groups of prescribed nodes (a hand's bones) whose reaction forces are
+        reported; every node of a group must be prescribed in all three directions.
     """
 
     def __init__(
@@ -42,6 +48,8 @@ class ElasticBody:
         prescribed: ArrayLike | None = None,
         loads: ArrayLike | None = None,
         backend: str = "auto",
+        contact_faces: fem.BoundaryFaces | None = None,
+        supports: Mapping[str, ArrayLike] | None = None,
     ) -> None:
         self.name = name
         self.mesh = mesh
@@ -53,6 +61,22 @@ class ElasticBody:
         self.loads = np.zeros(n) if loads is None else np.asarray(loads, dtype=np.float64)
         if self.loads.shape != (n,):
             raise ValueError(f"{name}: loads must have shape ({n},), got {self.loads.shape}")
+        self._contact_faces = contact_faces
+        fixed = np.zeros(n, dtype=bool)
+        if pres is not None:
+            fixed[pres] = True
+        self.fixed_dofs = fixed
+        groups: dict[str, NDArray[np.int64]] = {}
+        for key, nodes in (supports or {}).items():
+            idx = np.asarray(nodes, dtype=np.int64).ravel()
+            if idx.size and (idx.min() < 0 or idx.max() >= mesh.n_points):
+                raise ValueError(
+                    f"{name}: support {key!r} has nodes outside 0..{mesh.n_points - 1}"
+                )
+            if not fixed[fem.node_dofs(idx)].all():
+                raise ValueError(f"{name}: support {key!r} has nodes that are not prescribed")
+            groups[str(key)] = idx
+        self.supports = groups
 
     @property
     def free(self) -> bool:
@@ -63,6 +87,37 @@ class ElasticBody:
     def surface_nodes(self) -> NDArray[np.int64]:
         """Nodes on the body's boundary: the ones that can touch."""
         return self.mesh.boundary.nodes
+
+    @cached_property
+    def prescribed_nodes(self) -> NDArray[np.int64]:
+        """Nodes with all three DOFs prescribed."""
+        return np.flatnonzero(self.fixed_dofs.reshape(-1, 3).all(axis=1))
+
+    @cached_property
+    def contact_faces(self) -> fem.BoundaryFaces:
+        """Boundary faces that can touch (see the class parameters)."""
+        if self._contact_faces is not None:
+            return self._contact_faces
+        bnd = self.mesh.boundary
+        held = self.fixed_dofs.reshape(-1, 3).all(axis=1)
+        return bnd.subset({k: ~held[f].all(axis=1) for k, f in bnd.faces.items()})
+
+    @cached_property
+    def contact_triangles(self) -> NDArray[np.int64]:
+        """The contact faces as outward triangles (quads split), in mesh node numbers."""
+        from .pairs import surface_triangles
+
+        return surface_triangles(self.contact_faces.faces)
+
+    @cached_property
+    def contact_nodes(self) -> NDArray[np.int64]:
+        """Sorted nodes of the contact faces."""
+        return self.contact_faces.nodes
+
+    def support_forces(self, reactions: NDArray[np.float64]) -> dict[str, NDArray[np.float64]]:
+        """Total reaction force ``(3,)`` on each support group (N), from nodal reactions."""
+        r = np.asarray(reactions, dtype=np.float64).reshape(-1, 3)
+        return {k: r[nodes].sum(axis=0) for k, nodes in self.supports.items()}
 
     @cached_property
     def size(self) -> float:

@@ -23,7 +23,7 @@ def _vec3(value: ArrayLike, what: str) -> NDArray[np.float64]:
     return v
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Plane:
     """A rigid plane; bodies must stay on the side its normal points to.
 

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["ContactResult", "IterationRecord"]
+__all__ = ["ContactResult", "FrameResult", "IterationRecord"]
 
 
 @dataclass(frozen=True)
@@ -27,7 +27,12 @@ class IterationRecord:
     max_penetration : float
         Deepest penetration of a free node after the solve (m, >= 0).
     total_force : ndarray, shape (3,)
-        Sum of the contact forces on the body (N).
+        Sum of the contact forces on the body (N); for several bodies, on the first one
+        (the ball).
+    relaxation : float
+        Relaxation factor applied to the Neumann side's answer (seed loop; 1 otherwise).
+    max_support_force : float
+        Largest support (bone) force magnitude after this iteration (N), 0 if none.
     """
 
     iteration: int
@@ -37,6 +42,8 @@ class IterationRecord:
     max_change: float
     max_penetration: float
     total_force: NDArray[np.float64]
+    relaxation: float = 1.0
+    max_support_force: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -82,3 +89,59 @@ class ContactResult:
     def total_contact_force(self) -> NDArray[np.float64]:
         """Sum of the contact forces on the body (N)."""
         return self.contact_force.sum(axis=0)
+
+
+@dataclass(frozen=True)
+class FrameResult:
+    """The outcome of the contact solve of one frame, for every body.
+
+    Attributes
+    ----------
+    converged : bool
+        The contacts settled within the limits and no support force passed its limit.
+    stop_reason : str
+        ``"converged"``, ``"iteration limit"``, ``"cycling"`` or ``"bone force limit:
+        ..."`` (naming the bone, its force and its limit).
+    algorithm : str
+        ``"contact-space"`` or ``"seed"``.
+    iterations : int
+        Iterations performed (contact-set updates, or loops of seed steps 2 to 5).
+    history : tuple of IterationRecord
+        One record per iteration.
+    displacement : dict of str to ndarray
+        Body name -> ``(N, 3)`` nodal displacements (m).
+    contact_force : dict of str to ndarray
+        Body name -> ``(N, 3)`` contact force on each node (N).
+    obstacle_forces : dict of str to ndarray
+        Plane name -> force the bodies exert on it ``(3,)`` (N).
+    support_forces : dict of str to dict of str to ndarray
+        Body name -> support group (bone) -> force ``(3,)`` the support exerts on the body
+        to hold it (N): what the musculature carries.
+    over_limit : dict of str to tuple of float
+        Support groups whose force magnitude passed its limit: name -> (force, limit).
+    contacts : dict of str to ndarray
+        The active contacts: ``pair`` (name per row), ``node`` (slave node), ``force``
+        (normal force, N, positive pushes apart), ``normal`` ``(m, 3)``.
+    max_penetration : float
+        Deepest penetration of a slave node into its master at the end (m).
+    timings : dict of str to float
+        Seconds per phase.
+    """
+
+    converged: bool
+    stop_reason: str
+    algorithm: str
+    iterations: int
+    history: tuple[IterationRecord, ...]
+    displacement: dict[str, NDArray[np.float64]]
+    contact_force: dict[str, NDArray[np.float64]]
+    obstacle_forces: dict[str, NDArray[np.float64]]
+    support_forces: dict[str, dict[str, NDArray[np.float64]]]
+    over_limit: dict[str, tuple[float, float]]
+    contacts: dict[str, NDArray]
+    max_penetration: float
+    timings: dict[str, float] = field(default_factory=dict)
+
+    def total_contact_force(self, body: str) -> NDArray[np.float64]:
+        """Sum of the contact forces on one body (N)."""
+        return self.contact_force[body].sum(axis=0)

@@ -1,0 +1,180 @@
+"""The contact forces of a fixed contact set, solved in contact space.
+
+For a fixed set of contact rows (:class:`contact.pairs.ContactRows`), the fixed point of
+the seed's steps 2 to 5 (every contact closed, both bodies in equilibrium under the
+contact forces) solves a small dense system on the contact forces ``lambda``::
+
+    W lambda + G a = -(g0 + sum_b E_b u0_b)       (every gap closed)
+    G^T lambda     = -Phi^T f                     (every free body in balance)
+
+``W = sum_b E_b C_b E_b^T`` is the Delassus operator (each body's compliance ``C_b``
+seen from the contact rows: ``K11^-1``, or the pseudo-inverse of a free body), ``u0_b =
+C_b f_b`` each body's answer to its own loads, and ``G = [E_b Phi_b]`` the rigid modes
+``Phi_b`` of the free bodies with their amplitudes ``a``. The compliance of a row is
+computed once by back-solves with the body's one factorisation and kept
+(:meth:`fem.StaticSolver.compliance`): a contact set that changes by ``k`` rows costs
+``k`` back-solves per body.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+from .body import ElasticBody
+from .errors import ContactError
+
+__all__ = ["BodyState", "ContactSpace"]
+
+
+@dataclass(frozen=True)
+class BodyState:
+    """A body's answer to its loads and contact forces.
+
+    Attributes
+    ----------
+    u : ndarray, shape (n_dofs,)
+        Displacements.
+    reactions : ndarray, shape (n_dofs,)
+        Support reactions at the prescribed DOFs (zero elsewhere).
+    rigid : ndarray
+        Rigid-mode amplitudes of a free body (empty otherwise).
+    """
+
+    u: NDArray[np.float64]
+    reactions: NDArray[np.float64]
+    rigid: NDArray[np.float64]
+
+
+class ContactSpace:
+    """Solve the contact forces of a fixed contact set for several bodies at once.
+
+    Parameters
+    ----------
+    bodies : sequence of ElasticBody
+        Every body of the scene, each factored once.
+    """
+
+    def __init__(self, bodies: Sequence[ElasticBody]) -> None:
+        self.bodies = list(bodies)
+        self._u0: dict[str, NDArray[np.float64]] = {}
+
+    def free_response(self, body: ElasticBody, f: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``C f``: the body's displacement under loads ``f`` (a free body: rigid part removed)."""
+        s = body.solver
+        u = np.zeros(s.n)
+        u[s.free] = s.apply_inverse(f[s.free])
+        return u
+
+    def own_response(self, body: ElasticBody) -> NDArray[np.float64]:
+        """The body's answer to its own loads, computed once."""
+        if body.name not in self._u0:
+            self._u0[body.name] = self.free_response(body, body.loads)
+        return self._u0[body.name]
+
+    def state(self, body: ElasticBody, forces: NDArray[np.float64], rigid: NDArray) -> BodyState:
+        """Displacement and support reactions of a body under its loads plus ``forces``."""
+        s = body.solver
+        f = body.loads + forces
+        u = self.own_response(body) + self.free_response(body, forces)
+        if s.free_body:
+            u = u + s.modes @ rigid
+        reactions = np.zeros(s.n)
+        if s.prescribed.size:
+            reactions[s.prescribed] = s.k[s.prescribed] @ u - f[s.prescribed]
+        return BodyState(u, reactions, np.asarray(rigid, dtype=np.float64))
+
+    def solve(
+        self, e: dict[str, sp.csr_matrix], g0: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], dict[str, BodyState]]:
+        """Contact forces closing every row, and every body's state under them.
+
+        Parameters
+        ----------
+        e : dict of str to sparse matrix
+            Each body's part ``E_b`` (m x n_dofs_b) of the rows.
+        g0 : ndarray, shape (m,)
+            Reference gaps of the rows.
+
+        Returns
+        -------
+        lam : ndarray, shape (m,)
+            Normal contact forces (N), positive pushing the bodies apart.
+        states : dict of str to BodyState
+            Every body's displacement and reactions.
+
+        Raises
+        ------
+        ContactError
+            When the contacts do not hold a free body whose loads are out of balance.
+        """
+        m = g0.size
+        w = np.zeros((m, m))
+        rhs = -np.asarray(g0, dtype=np.float64).copy()
+        g_cols: list[NDArray] = []
+        balance: list[NDArray] = []
+        free: list[ElasticBody] = []
+        for body in self.bodies:
+            eb = e.get(body.name)
+            s = body.solver
+            if eb is not None and m:
+                w += s.compliance(eb)
+                rhs -= eb @ self.own_response(body)
+            if s.free_body:
+                free.append(body)
+                g_cols.append(eb @ s.modes if eb is not None else np.zeros((m, 6)))
+                balance.append(-(s.modes.T @ body.loads))
+        g = np.hstack(g_cols) if g_cols else np.zeros((m, 0))
+        c = np.concatenate(balance) if balance else np.zeros(0)
+        lam, a = _saddle(w, g, rhs, c, [b.name for b in free])
+        states = {}
+        k = 0
+        for body in self.bodies:
+            eb = e.get(body.name)
+            forces = eb.T @ lam if eb is not None and m else np.zeros(body.mesh.n_dofs)
+            rigid = np.zeros(0)
+            if body.solver.free_body:
+                rigid = a[6 * k : 6 * k + 6]
+                k += 1
+            states[body.name] = self.state(body, forces, rigid)
+        return lam, states
+
+
+def _saddle(
+    w: NDArray, g: NDArray, rhs: NDArray, c: NDArray, free: list[str]
+) -> tuple[NDArray, NDArray]:
+    """Solve ``[[W, G], [G^T, 0]] [lam; a] = [rhs; c]``."""
+    m, r = g.shape
+    if r == 0:
+        if m == 0:
+            return np.zeros(0), np.zeros(0)
+        try:
+            return sla.cho_solve(sla.cho_factor(w), rhs), np.zeros(0)
+        except sla.LinAlgError:
+            sol, *_ = np.linalg.lstsq(w, rhs, rcond=1e-12)
+            return sol, np.zeros(0)
+    big = np.zeros((m + r, m + r))
+    big[:m, :m] = w
+    big[:m, m:] = g
+    big[m:, :m] = g.T
+    b = np.concatenate([rhs, c])
+    sv = np.linalg.svd(g, compute_uv=False) if m else np.zeros(r)
+    if sv.size < r or sv[-1] <= 1e-10 * max(sv[0] if sv.size else 0.0, 1e-300):
+        sol, *_ = np.linalg.lstsq(big, b, rcond=1e-12)
+        res = big @ sol - b
+        if np.linalg.norm(res) > 1e-8 * max(np.linalg.norm(b), 1e-300):
+            raise ContactError(
+                f"nothing holds {', '.join(free)}: the contacts do not hold it in every "
+                "direction and its loads are out of balance in the free ones"
+            )
+    else:
+        try:
+            sol = sla.solve(big, b, assume_a="sym")
+        except sla.LinAlgError:
+            sol, *_ = np.linalg.lstsq(big, b, rcond=1e-12)
+    return sol[:m], sol[m:]

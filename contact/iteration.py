@@ -1,0 +1,506 @@
+"""The contact iteration of a frame: seed 000's five steps, and the same in contact space.
+
+Both algorithms share the geometry (:mod:`contact.pairs`): step 2 finds the slave nodes
+behind a plane or inside another body's surface and takes, for each, a gap row along the
+master's normal at its closest point; a node in contact stays in contact (contact memory)
+until its force pulls, and is then released.
+
+``"seed"`` is Fig. 9 of seed 000 read literally, a Dirichlet-Neumann iteration between
+one *Dirichlet* body (the ball) and the others (the hand):
+
+3. solve the ball with its contact rows prescribed against the others' current
+   positions; its reactions are the contact forces (equations 7 and 8; a free ball through
+   its rigid modes, whose amplitudes place it);
+4. dispatch each reaction, reversed, onto the master facet's nodes with the barycentric
+   weights (action equals reaction by construction);
+5. solve the others under these forces (bones prescribed); the ball keeps step 3's
+   state; relax the others' answer (none, a fixed factor, or Aitken's).
+
+It converges only where the ball is the stiffer side. ``"contact-space"`` (the default)
+solves, for each contact set, the fixed point of steps 2 to 5 directly with the Delassus
+operator of both bodies (:class:`contact.delassus.ContactSpace`): the outer loop only adds
+penetrating nodes and releases pulling ones.
+
+Each body is factored once (when it is built); nothing is refactored here.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+import fem
+
+from .body import ElasticBody
+from .delassus import BodyState, ContactSpace
+from .errors import ContactError
+from .geometry import Plane
+from .pairs import ContactPair, ContactRows, Penetrations, measure
+from .results import FrameResult, IterationRecord
+
+__all__ = ["ALGORITHMS", "RELAXATIONS", "ContactSettings", "solve_frame"]
+
+log = logging.getLogger(__name__)
+
+#: Contact algorithms by name.
+ALGORITHMS = ("contact-space", "seed")
+#: Relaxations of the seed loop.
+RELAXATIONS = ("none", "fixed", "aitken")
+
+
+@dataclass(frozen=True)
+class ContactSettings:
+    """Settings of the contact iteration.
+
+    Parameters
+    ----------
+    algorithm : {"contact-space", "seed"}
+        See the module docstring.
+    max_iterations : int
+        Limit on the iterations (>= 1).
+    tolerance : float
+        Seed loop: converged when the largest change of a nodal displacement between two
+        iterations is at most this fraction of the largest displacement (> 0).
+    gap_tolerance : float
+        A node is penetrating when it is inside its master by more than this fraction of
+        its local element size (square root of its tributary area); at the start, nodes
+        that touch within it are taken in contact (> 0).
+    force_tolerance : float
+        A contact is released when it pulls by more than this fraction of the largest
+        contact force (>= 0).
+    relaxation : {"none", "fixed", "aitken"}
+        Relaxation of the seed loop's step 5.
+    relaxation_factor : float
+        The fixed factor, and Aitken's first one, in (0, 1].
+    support_limits : mapping of str to float, optional
+        Largest force (N) each support group (bone) may carry; a frame whose force passes
+        it stops (seed) or is reported over the limit (contact space). Groups not named
+        have no limit.
+    """
+
+    algorithm: str = "contact-space"
+    max_iterations: int = 50
+    tolerance: float = 1e-4
+    gap_tolerance: float = 1e-3
+    force_tolerance: float = 1e-9
+    relaxation: str = "none"
+    relaxation_factor: float = 0.5
+    support_limits: Mapping[str, float] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.algorithm not in ALGORITHMS:
+            raise ContactError(
+                f"solver.algorithm must be one of {', '.join(ALGORITHMS)}, got {self.algorithm!r}"
+            )
+        if self.relaxation not in RELAXATIONS:
+            raise ContactError(
+                f"solver.relaxation must be one of {', '.join(RELAXATIONS)}, "
+                f"got {self.relaxation!r}"
+            )
+        if not isinstance(self.max_iterations, int) or self.max_iterations < 1:
+            raise ContactError(
+                f"solver.max_iterations must be an integer >= 1, got {self.max_iterations!r}"
+            )
+        for key in ("tolerance", "gap_tolerance"):
+            v = getattr(self, key)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ContactError(f"solver.{key} must be a positive number, got {v!r}")
+        if not (math.isfinite(self.force_tolerance) and self.force_tolerance >= 0):
+            raise ContactError(f"solver.force_tolerance must be >= 0, got {self.force_tolerance!r}")
+        if not (0 < self.relaxation_factor <= 1):
+            raise ContactError(
+                f"solver.relaxation_factor must lie in (0, 1], got {self.relaxation_factor!r}"
+            )
+        for k, v in self.support_limits.items():
+            if not (isinstance(v, (int, float)) and v > 0):
+                raise ContactError(f"bone force limit of {k!r} must be positive, got {v!r}")
+
+
+class _Frame:
+    """The state shared by both algorithms: bodies, pairs, geometry, records."""
+
+    def __init__(
+        self,
+        bodies: Sequence[ElasticBody],
+        planes: Sequence[Plane],
+        pairs: Sequence[ContactPair],
+        settings: ContactSettings,
+    ) -> None:
+        names = [b.name for b in bodies] + [p.name for p in planes]
+        if len(set(names)) != len(names):
+            raise ContactError(f"body and plane names must be unique, got {names}")
+        self.bodies = list(bodies)
+        self.planes = list(planes)
+        self.pairs = list(pairs)
+        for p in self.pairs:
+            if p.slave not in self.bodies or (not p.rigid and p.master not in self.bodies):
+                raise ContactError(f"contact pair {p.name}: its bodies are not in the scene")
+            if p.rigid and p.master not in self.planes:
+                raise ContactError(f"contact pair {p.name}: its plane is not in the scene")
+        self.settings = settings
+        self.local = {b.name: np.sqrt(np.maximum(b.node_areas, 1e-300)) for b in self.bodies}
+        self.margin = max(
+            float(self.local[b.name].max()) for b in self.bodies
+        )  # broad-phase margin: one element
+        self.timings = {"geometry": 0.0, "contact solve": 0.0, "bodies": 0.0}
+
+    def measure(self, u: dict[str, NDArray]) -> list[Penetrations]:
+        """Gaps of every pair's candidates at displacements ``u``."""
+        t = time.perf_counter()
+        out = [measure(p, u, self.margin) for p in self.pairs]
+        self.timings["geometry"] += time.perf_counter() - t
+        return out
+
+    def tol(self, pair: ContactPair, nodes: NDArray[np.int64]) -> NDArray[np.float64]:
+        """Penetration tolerance of slave nodes (m)."""
+        return self.settings.gap_tolerance * self.local[pair.slave.name][nodes]
+
+    def new_rows(
+        self, rows: ContactRows, pens: list[Penetrations], touching: bool
+    ) -> tuple[ContactRows, int, float]:
+        """Rows with the penetrating nodes not yet in contact added; and the deepest one.
+
+        ``touching`` also takes nodes within the tolerance outside (the first contact set).
+        """
+        added = 0
+        depth = 0.0
+        for i, (pair, p) in enumerate(zip(self.pairs, pens, strict=True)):
+            if not p.nodes.size:
+                continue
+            tol = self.tol(pair, p.nodes)
+            fresh = ~np.isin(p.nodes, rows.node[rows.pair == i])
+            depth = max(depth, float(np.max(-p.gap, initial=0.0)))
+            hit = fresh & ((p.gap < tol) if touching else (p.gap < -tol))
+            if hit.any():
+                rows = rows.extended(self.pairs, i, p.select(hit))
+                added += int(hit.sum())
+        return rows, added, depth
+
+    def matrices(self, rows: ContactRows) -> dict:
+        """Each body's part of the rows."""
+        return rows.matrices(self.pairs, self.bodies)
+
+    def over_limit(self, supports: dict[str, dict[str, NDArray]]) -> dict[str, tuple[float, float]]:
+        """Support groups whose force magnitude passes its limit."""
+        out = {}
+        for forces in supports.values():
+            for name, f in forces.items():
+                limit = self.settings.support_limits.get(name)
+                mag = float(np.linalg.norm(f))
+                if limit is not None and mag > limit:
+                    out[name] = (mag, float(limit))
+        return out
+
+    def result(
+        self,
+        *,
+        converged: bool,
+        stop: str,
+        history: list[IterationRecord],
+        rows: ContactRows,
+        lam: NDArray[np.float64],
+        states: dict[str, BodyState],
+        t0: float,
+    ) -> FrameResult:
+        """Assemble the frame's result from the last state."""
+        e = self.matrices(rows) if len(rows) else {}
+        contact_force = {}
+        for b in self.bodies:
+            eb = e.get(b.name)
+            f = eb.T @ lam if eb is not None else np.zeros(b.mesh.n_dofs)
+            contact_force[b.name] = f.reshape(-1, 3)
+        plane_forces = {}
+        for pl in self.planes:
+            idx = [i for i, p in enumerate(self.pairs) if p.master is pl]
+            sel = np.isin(rows.pair, idx)
+            plane_forces[pl.name] = -(lam[sel][:, None] * rows.normal[sel]).sum(axis=0)
+        supports = {
+            b.name: b.support_forces(states[b.name].reactions) for b in self.bodies if b.supports
+        }
+        u = {b.name: states[b.name].u.reshape(-1, 3) for b in self.bodies}
+        pens = self.measure(u)
+        depth = max((float(np.max(-p.gap, initial=0.0)) for p in pens), default=0.0)
+        over = self.over_limit(supports)
+        if over and converged:
+            converged = False
+            stop = _limit_reason(over)
+        self.timings["total"] = time.perf_counter() - t0
+        names = np.array([p.name for p in self.pairs], dtype=object)
+        return FrameResult(
+            converged=converged,
+            stop_reason=stop,
+            algorithm=self.settings.algorithm,
+            iterations=len(history),
+            history=tuple(history),
+            displacement=u,
+            contact_force=contact_force,
+            obstacle_forces=plane_forces,
+            support_forces=supports,
+            over_limit=over,
+            contacts={
+                "pair": names[rows.pair] if len(rows) else np.zeros(0, dtype=object),
+                "node": rows.node.copy(),
+                "force": np.asarray(lam, dtype=np.float64).copy(),
+                "normal": rows.normal.copy(),
+            },
+            max_penetration=depth,
+            timings=dict(self.timings),
+        )
+
+
+def _limit_reason(over: dict[str, tuple[float, float]]) -> str:
+    name, (force, limit) = max(over.items(), key=lambda kv: kv[1][0] / kv[1][1])
+    return f"bone force limit: {name} carries {force:.4g} N > {limit:.4g} N"
+
+
+def _first_body_force(e: dict, lam: NDArray[np.float64], body: ElasticBody) -> NDArray[np.float64]:
+    eb = e.get(body.name)
+    if eb is None or not lam.size:
+        return np.zeros(3)
+    return (eb.T @ lam).reshape(-1, 3).sum(axis=0)
+
+
+def _key(rows: ContactRows) -> bytes:
+    k = rows.keys
+    return k[np.lexsort(k.T[::-1])].tobytes() if len(k) else b""
+
+
+def solve_frame(
+    bodies: Sequence[ElasticBody],
+    pairs: Sequence[ContactPair],
+    planes: Sequence[Plane] = (),
+    settings: ContactSettings | None = None,
+    *,
+    dirichlet: str | None = None,
+) -> FrameResult:
+    """Resolve the contacts of one frame.
+
+    Parameters
+    ----------
+    bodies : sequence of ElasticBody
+        The deformable bodies (the first is the one whose total contact force the
+        history records: the ball), each at its frame's reference position.
+    pairs : sequence of ContactPair
+        Which slave nodes touch which master (both directions between two bodies: two
+        pairs).
+    planes : sequence of Plane
+        The rigid planes the pairs refer to, moved to the frame's position.
+    settings : ContactSettings, optional
+        Algorithm and tolerances.
+    dirichlet : str, optional
+        Seed loop: the body solved with its contacts prescribed (default the first).
+
+    Returns
+    -------
+    FrameResult
+        Never raises on non-convergence: ``converged`` is False and ``stop_reason`` says
+        why, with the last state kept.
+
+    Raises
+    ------
+    ContactError
+        Bad settings, or a free body that nothing holds.
+    """
+    settings = settings or ContactSettings()
+    frame = _Frame(bodies, planes, pairs, settings)
+    if settings.algorithm == "seed":
+        return _seed(frame, dirichlet or frame.bodies[0].name)
+    return _contact_space(frame)
+
+
+def _contact_space(frame: _Frame) -> FrameResult:
+    t0 = time.perf_counter()
+    st = frame.settings
+    space = ContactSpace(frame.bodies)
+    u = {b.name: np.zeros((b.mesh.n_points, 3)) for b in frame.bodies}
+    rows, _, _ = frame.new_rows(ContactRows(), frame.measure(u), touching=True)
+    history: list[IterationRecord] = []
+    seen: set[bytes] = set()
+    stop, converged = "iteration limit", False
+    prev = np.zeros(sum(b.mesh.n_dofs for b in frame.bodies))
+    solved, lam, states = rows, np.zeros(0), {}
+    for it in range(1, st.max_iterations + 1):
+        key = _key(rows)
+        if key in seen:
+            stop = "cycling"
+            break
+        seen.add(key)
+        t = time.perf_counter()
+        e = frame.matrices(rows)
+        lam, states = space.solve(e, rows.g0)
+        frame.timings["contact solve"] += time.perf_counter() - t
+        solved = rows
+        u = {name: s.u.reshape(-1, 3) for name, s in states.items()}
+        flat = np.concatenate([states[b.name].u for b in frame.bodies])
+        change = float(np.abs(flat - prev).max())
+        prev = flat
+        scale = max(float(np.abs(lam).max()) if lam.size else 0.0, 1e-300)
+        pulling = lam < -st.force_tolerance * scale
+        grown, added, depth = frame.new_rows(rows, frame.measure(u), touching=False)
+        supports = [
+            np.linalg.norm(f)
+            for b in frame.bodies
+            for f in b.support_forces(states[b.name].reactions).values()
+        ]
+        history.append(
+            IterationRecord(
+                iteration=it,
+                n_contacts=len(rows),
+                added=added,
+                released=int(pulling.sum()),
+                max_change=change,
+                max_penetration=depth,
+                total_force=_first_body_force(e, lam, frame.bodies[0]),
+                max_support_force=float(max(supports, default=0.0)),
+            )
+        )
+        log.debug(
+            "contact space: iteration %d, %d contacts, +%d -%d",
+            it,
+            len(rows),
+            added,
+            int(pulling.sum()),
+        )
+        if not added and not pulling.any():
+            converged, stop = True, "converged"
+            break
+        rows = grown.select(np.concatenate([~pulling, np.ones(added, dtype=bool)]))
+    return frame.result(
+        converged=converged,
+        stop=stop,
+        history=history,
+        rows=solved,
+        lam=lam,
+        states=states,
+        t0=t0,
+    )
+
+
+def _seed(frame: _Frame, dirichlet: str) -> FrameResult:
+    t0 = time.perf_counter()
+    st = frame.settings
+    names = [b.name for b in frame.bodies]
+    if dirichlet not in names:
+        raise ContactError(f"the seed loop's Dirichlet body {dirichlet!r} is not in {names}")
+    ball = frame.bodies[names.index(dirichlet)]
+    others = [b for b in frame.bodies if b is not ball]
+    for p in frame.pairs:
+        if p.slave is not ball and p.master is not ball:
+            raise ContactError(
+                f"the seed loop resolves contacts with {dirichlet!r} only; pair {p.name} "
+                "does not involve it (use the contact-space algorithm)"
+            )
+    space = ContactSpace(frame.bodies)
+    states = {
+        b.name: BodyState(np.zeros(b.mesh.n_dofs), np.zeros(b.mesh.n_dofs), np.zeros(0))
+        for b in frame.bodies
+    }
+    u = {b.name: np.zeros((b.mesh.n_points, 3)) for b in frame.bodies}
+    # step 2 (first time): nodes penetrating or touching in the posed position
+    rows, _, _ = frame.new_rows(ContactRows(), frame.measure(u), touching=True)
+    history: list[IterationRecord] = []
+    stop, converged = "iteration limit", False
+    omega = 1.0 if st.relaxation == "none" else st.relaxation_factor
+    residual_prev: NDArray | None = None
+    lam = np.zeros(0)
+    solved = rows
+    for it in range(1, st.max_iterations + 1):
+        t = time.perf_counter()
+        e = frame.matrices(rows)
+        # step 3: the ball with its contact rows prescribed against the others' positions
+        g = rows.g0.copy()
+        for b in others:
+            if b.name in e:
+                g += e[b.name] @ states[b.name].u
+        eb = e.get(ball.name)
+        try:
+            if eb is None or not len(rows):
+                sol = ball.solver.solve(ball.loads)
+                lam = np.zeros(0)
+            else:
+                sol = ball.solver.solve(ball.loads, extra=eb, extra_values=-g)
+                lam = sol.extra_reactions
+        except fem.LoadError as exc:
+            raise ContactError(f"nothing holds {ball.name}: {exc}") from None
+        frame.timings["contact solve"] += time.perf_counter() - t
+        t = time.perf_counter()
+        new_states = {ball.name: BodyState(sol.u, sol.reactions, sol.rigid)}
+        # steps 4 and 5: the reactions, reversed, dispatched onto the others; solve them
+        residuals = []
+        for b in others:
+            eo = e.get(b.name)
+            forces = eo.T @ lam if eo is not None and lam.size else np.zeros(b.mesh.n_dofs)
+            answer = space.state(b, forces, np.zeros(6) if b.solver.free_body else np.zeros(0))
+            residuals.append(answer.u - states[b.name].u)
+            new_states[b.name] = answer
+        if others:
+            r = np.concatenate(residuals)
+            if st.relaxation == "aitken" and residual_prev is not None:
+                dr = r - residual_prev
+                denom = float(dr @ dr)
+                if denom > 0:
+                    omega = float(np.clip(-omega * (residual_prev @ dr) / denom, 0.01, 1.0))
+            residual_prev = r
+            for b, res in zip(others, residuals, strict=True):
+                old = states[b.name]
+                full = new_states[b.name]
+                uu = old.u + omega * res
+                reac = old.reactions + omega * (full.reactions - old.reactions)
+                new_states[b.name] = BodyState(uu, reac, full.rigid)
+        frame.timings["bodies"] += time.perf_counter() - t
+        flat_new = np.concatenate([new_states[b.name].u for b in frame.bodies])
+        flat_old = np.concatenate([states[b.name].u for b in frame.bodies])
+        change = float(np.abs(flat_new - flat_old).max())
+        size = max(float(np.abs(flat_new).max()), 1e-300)
+        states = new_states
+        solved = rows
+        u = {name: s.u.reshape(-1, 3) for name, s in states.items()}
+        scale = max(float(np.abs(lam).max()) if lam.size else 0.0, 1e-300)
+        pulling = lam < -st.force_tolerance * scale
+        grown, added, depth = frame.new_rows(rows, frame.measure(u), touching=False)
+        supports = {b.name: b.support_forces(states[b.name].reactions) for b in frame.bodies}
+        over = frame.over_limit(supports)
+        history.append(
+            IterationRecord(
+                iteration=it,
+                n_contacts=len(rows),
+                added=added,
+                released=int(pulling.sum()),
+                max_change=change,
+                max_penetration=depth,
+                total_force=_first_body_force(e, lam, frame.bodies[0]),
+                relaxation=omega,
+                max_support_force=float(
+                    max(
+                        (np.linalg.norm(f) for s in supports.values() for f in s.values()),
+                        default=0.0,
+                    )
+                ),
+            )
+        )
+        log.debug("seed: iteration %d, %d contacts, change %.3g", it, len(rows), change)
+        if over:
+            stop = _limit_reason(over)
+            break
+        if not np.isfinite(change) or change > 1e6 * max(frame.margin, 1e-300):
+            stop = "diverged"
+            break
+        if it > 1 and change <= st.tolerance * size and not added and not pulling.any():
+            converged, stop = True, "converged"
+            break
+        rows = grown.select(np.concatenate([~pulling, np.ones(added, dtype=bool)]))
+    return frame.result(
+        converged=converged,
+        stop=stop,
+        history=history,
+        rows=solved,
+        lam=lam,
+        states=states,
+        t0=t0,
+    )
