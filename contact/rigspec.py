@@ -26,7 +26,16 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
-__all__ = ["ROOT", "BoneSpec", "JointSpec", "Primitive", "RigSpec", "read_rig"]
+__all__ = [
+    "JLD_DEFAULTS",
+    "ROOT",
+    "BoneSpec",
+    "JLDParams",
+    "JointSpec",
+    "Primitive",
+    "RigSpec",
+    "read_rig",
+]
 
 #: Name of the fixed frame (the forearm) that the first joint and root bones hang on.
 ROOT = "root"
@@ -83,6 +92,41 @@ class Primitive:
 
 
 @dataclass(frozen=True)
+class JLDParams:
+    """The animator's parameters of the JLD skin mapping at one joint (seed 001, section 3).
+
+    Proximities are fractions of a segment's length; amplitudes are relative to the flesh
+    thickness beyond the bone. See ``meshes/hand/rig.toml`` (section ``[jld]``).
+    """
+
+    proximal: float = 0.35
+    """Proximal area of the joint's child segment (fraction of its length, Fig. 6)."""
+    distal: float = 0.35
+    """Distal area of the joint's parent segment (fraction of its length)."""
+    rounding: float = 0.12
+    """Joint inflation: dorsal rounding amplitude at full flexion (section 6.1)."""
+    muscle: float = 0.10
+    """Palmar muscle inflation amplitude at full flexion (section 6.2)."""
+    muscle_peak: float = 0.5
+    """Join point of the two exponential functions: ratio of the largest inflation."""
+    muscle_power: float = 2.0
+    """Exponent ``b`` of the exponential functions (sharper peak when larger)."""
+    spread: float = 20.0
+    """Half-angle (degrees) of the cone around each segment's axis that moves rigidly
+    with it near the joint; the normals turn over the remaining angle."""
+
+    def replace(self, **kw: float) -> JLDParams:
+        """A copy with some fields changed."""
+        from dataclasses import replace
+
+        return replace(self, **kw)
+
+
+#: Defaults of every JLD parameter; a rig file without a ``[jld]`` section gets these.
+JLD_DEFAULTS = JLDParams()
+
+
+@dataclass(frozen=True)
 class RigSpec:
     """Everything a rig file says, validated."""
 
@@ -96,6 +140,18 @@ class RigSpec:
     reach: float
     gap: float
     min_flesh: float
+    jld: dict[str, JLDParams] | None = None
+    """JLD parameters by joint name (every joint; defaults where the file is silent)."""
+    palm_proximity: float = 0.25
+    """Two-segment palm covering: area along each metacarpal, fraction of the virtual
+    segment (section 5.2)."""
+    palm_bulge: float = 0.5
+    """Palm thickness grows as ``F ** palm_bulge`` midway between two metacarpals whose
+    virtual segment shrank by the scale factor ``F`` (section 4)."""
+
+    def jld_params(self, joint: str) -> JLDParams:
+        """The JLD parameters of one joint (the defaults if the rig gives none)."""
+        return (self.jld or {}).get(joint, JLD_DEFAULTS)
 
 
 class _Reader:
@@ -213,7 +269,7 @@ def read_rig(path: str | os.PathLike) -> RigSpec:
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise RigError(f"{src}: not valid TOML: {exc}") from None
     r = _Reader(src)
-    r.table(data, "", {"rig", "flesh", "skin", "joints", "bones"}, set())
+    r.table(data, "", {"rig", "flesh", "skin", "joints", "bones"}, {"jld"})
     r.table(data["rig"], "rig", {"name", "length_unit", "angle_unit"}, set())
     name = r.string(data["rig"]["name"], "rig.name")
     r.string(data["rig"]["length_unit"], "rig.length_unit", ("m",))
@@ -239,7 +295,74 @@ def read_rig(path: str | os.PathLike) -> RigSpec:
     primitives = tuple(
         _read_primitive(r, p, f"skin.primitives[{i}]", joints, groups) for i, p in enumerate(prims)
     )
-    return RigSpec(name, src, joints, bones, primitives, groups, base_group, reach, gap, min_flesh)
+    jld, palm_proximity, palm_bulge = _read_jld(r, data.get("jld", {}), joints)
+    return RigSpec(
+        name,
+        src,
+        joints,
+        bones,
+        primitives,
+        groups,
+        base_group,
+        reach,
+        gap,
+        min_flesh,
+        jld,
+        palm_proximity,
+        palm_bulge,
+    )
+
+
+_JLD_KEYS = {
+    "proximal": (0.05, 0.5),
+    "distal": (0.05, 0.5),
+    "rounding": (0.0, 0.5),
+    "muscle": (0.0, 0.5),
+    "muscle_peak": (0.05, 0.95),
+    "muscle_power": (0.5, 8.0),
+    "spread": (0.0, 60.0),
+}
+
+
+def _jld_values(r: _Reader, table: Any, path: str, base: JLDParams) -> JLDParams:
+    r.table(table, path, set(), set(_JLD_KEYS))
+    values = {}
+    for key, (lo, hi) in _JLD_KEYS.items():
+        if key in table:
+            v = r.number(table[key], f"{path}.{key}")
+            if not lo <= v <= hi:
+                raise r.fail(f"{path}.{key}", table[key], f"must lie in [{lo:g}, {hi:g}]")
+            values[key] = v
+    return base.replace(**values)
+
+
+def _read_jld(
+    r: _Reader, data: Any, joints: dict[str, JointSpec]
+) -> tuple[dict[str, JLDParams], float, float]:
+    """The optional ``[jld]`` section: defaults, per-joint overrides and the palm keys."""
+    top = set(_JLD_KEYS) | {"palm_proximity", "palm_bulge", "joints"}
+    r.table(data, "jld", set(), top)
+    defaults = _jld_values(r, {k: v for k, v in data.items() if k in _JLD_KEYS}, "jld", JLDParams())
+    palm_proximity = 0.25
+    if "palm_proximity" in data:
+        palm_proximity = r.number(data["palm_proximity"], "jld.palm_proximity")
+        if not 0.0 <= palm_proximity < 0.5:
+            raise r.fail("jld.palm_proximity", data["palm_proximity"], "must lie in [0, 0.5)")
+    palm_bulge = 0.5
+    if "palm_bulge" in data:
+        palm_bulge = r.number(data["palm_bulge"], "jld.palm_bulge")
+        if not 0.0 <= palm_bulge <= 2.0:
+            raise r.fail("jld.palm_bulge", data["palm_bulge"], "must lie in [0, 2]")
+    per_joint = data.get("joints", {})
+    if not isinstance(per_joint, dict):
+        raise r.fail("jld.joints", per_joint, "must be a table of joints")
+    out = {}
+    for name in per_joint:
+        if name not in joints:
+            raise r.fail(f"jld.joints.{name}", name, "unknown joint")
+    for name in joints:
+        out[name] = _jld_values(r, per_joint.get(name, {}), f"jld.joints.{name}", defaults)
+    return out, palm_proximity, palm_bulge
 
 
 def _read_primitive(r: _Reader, p: Any, path: str, joints: dict, groups: tuple) -> Primitive:

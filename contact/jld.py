@@ -1,0 +1,568 @@
+"""Joint-dependent local deformations (JLD): the skin and flesh mapping of seed 001.
+
+Every point of the hand at rest (skin vertex or flesh node, volume nodes included) is
+localised once against the skeleton, then mapped for any pose by :meth:`JLDMap.map`. The
+steps follow Magnenat-Thalmann, Laperrière and Thalmann (seed 001, sections 3 to 6):
+
+Localisation (section 4, Fig. 4)
+    *Proximal assignment*: a point belongs to the bone whose axis segment is nearest
+    (a node fixed to a bone belongs to that bone). Its *projection* on the segment gives the
+    *ratio* ``R = L1 / LT`` from the proximal joint, its *thickness* ``E`` is the distance
+    to the projection. The ratio is measured between the two planes that bisect the
+    segment and its neighbours at the joints (the plane normal to the segment where it has
+    no neighbour), so that two segments share their joint plane exactly; a point beyond a
+    joint plane is handed to the neighbouring segment.
+Areas (section 5.1, Fig. 6)
+    Along a segment: a *proximal area* ``R < prox_P``, a *buffer* and a *distal area*
+    ``R > 1 - prox_D``; the proximities are the animator's parameters of each joint.
+Coordinate bases (sections 4, 5.3, 5.4, Figs. 3, 8, 9, 10)
+    The buffer moves rigidly with its bone (its normals are the segment's original ones).
+    In the two areas at a joint the basis turns from the original normal of one segment
+    to the other's through the *modified normal*, the average of the initial and final
+    joint normals, reached on the joint plane: the point's basis is its parent bone's,
+    turned by the fraction ``s`` of the joint's rotation (flexion and pivot). ``s`` is 1/2
+    on the joint plane (the modified normal), 1 in the child's buffer and 0 in the
+    parent's. The interpolation weight combines the area ratio of Fig. 8 with the angle
+    ``psi`` of the point about the flexion axis, seen from the joint: the normal turns
+    uniformly with ``psi`` outside a cone of half-angle ``spread`` around each segment.
+    With the weight a function of ``psi`` (and of the distance from the axis) the local
+    Jacobian determinant is ``1 + theta ds/dpsi``, positive for any flexion below the
+    angle the normals turn over; interpolating by the ratio alone, as the seed does for a
+    surface, folds the palmar flesh of a deep flexion (its determinant is
+    ``1 - theta E ds/dL``, negative for thick flesh).
+    Joints whose parent bone carries several joints (the carpometacarpal joints on the
+    carpus) are one-sided: the child's proximal area turns from the parent's basis to its
+    own by the ratio alone (their angles are small).
+Two-segment covering of the palm (sections 4 and 5.2, Figs. 5 and 7)
+    A palm point between two neighbouring metacarpals is also projected on the neighbour;
+    the *virtual segment* joins the two projections. Its ratio ``t`` splits it into an
+    area along each metacarpal (``t < palm_proximity``), mapped by that metacarpal alone,
+    and an in-between area where the two mappings blend, half and half at the middle, so
+    the bases interpolate from one metacarpal's to the other's (Fig. 5). The *scale
+    factor* ``F`` (virtual segment at rest over posed) thickens the palm between two
+    metacarpals that come closer: by ``F ** palm_bulge`` at the middle.
+Joint rounding and muscle inflation (section 6)
+    With the flexion ratio ``FR = flexion / maximal flexion`` of a joint, dorsal points in
+    its two areas move away from the segment axis by ``rounding * FR * (1 - R/prox)^2``
+    of their flesh thickness beyond the bone (largest at the joint, none at the area's
+    end); palmar points of a finger segment by ``muscle * FR * f(R)``, ``f`` two
+    exponential functions ``(a e^(1-a))^b`` joined at the animator's ``muscle_peak``,
+    ``a = R / peak`` before it and ``(1 - R) / (1 - peak)`` after (``f`` is 0 at both
+    joints and 1 at the join point).
+
+Exactness: :meth:`JLDMap.displacement` is ``map(pose) - map(rest)`` computed by the same
+arithmetic, so every point maps to itself bit for bit at the rest angles. Points fixed to a
+bone move exactly rigidly with it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .rigspec import ROOT
+from .skeleton import PIVOT_SUFFIX, Skeleton, rotation_matrices
+
+__all__ = ["JLDMap", "SkeletonTopology", "muscle_profile", "smoothstep"]
+
+_EPS = 1e-12
+
+
+def smoothstep(t: ArrayLike) -> NDArray[np.float64]:
+    """``3 t^2 - 2 t^3`` of ``t`` clipped to [0, 1]: 0 below, 1 above, C1 in between."""
+    t = np.clip(np.asarray(t, dtype=np.float64), 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
+
+
+def muscle_profile(ratio: ArrayLike, peak: ArrayLike, power: ArrayLike) -> NDArray[np.float64]:
+    """Two exponential functions joined at ``peak`` (seed 001, Fig. 11).
+
+    ``f = (a exp(1 - a)) ** power`` with ``a = ratio / peak`` before the join point and
+    ``a = (1 - ratio) / (1 - peak)`` after it: 0 at both ends, 1 at ``peak`` where the two
+    join with zero slope.
+    """
+    r = np.clip(np.asarray(ratio, dtype=np.float64), 0.0, 1.0)
+    peak = np.asarray(peak, dtype=np.float64)
+    a = np.where(r <= peak, r / peak, (1.0 - r) / (1.0 - peak))
+    return (a * np.exp(1.0 - a)) ** power
+
+
+def _unit(v: NDArray) -> NDArray:
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+@dataclass(frozen=True)
+class SkeletonTopology:
+    """Bone segments and how they chain, derived once from a :class:`Skeleton`.
+
+    Attributes
+    ----------
+    names : list of str
+        Bone names; index ``i`` is bone id ``i``.
+    start, end, direction : ndarray, shape (B, 3)
+        Rest axis of each bone (from its joint) and its unit direction.
+    joint : list of str
+        The joint carrying each bone (``"root"`` for fixed bones).
+    parent : ndarray of int, shape (B,)
+        The bone carried by the parent joint, -1 for none.
+    chained : ndarray of bool, shape (B,)
+        Bone ``i`` is the only bone carried by a joint hanging on its parent bone, and
+        that joint is the parent's axis end: the two share a joint plane (two-sided JLD).
+    child : ndarray of int, shape (B,)
+        The chained child bone, -1 for none.
+    """
+
+    names: list[str]
+    start: NDArray[np.float64]
+    end: NDArray[np.float64]
+    direction: NDArray[np.float64]
+    joint: list[str]
+    parent: NDArray[np.int64]
+    chained: NDArray[np.bool_]
+    child: NDArray[np.int64]
+
+    @classmethod
+    def from_skeleton(cls, skeleton: Skeleton) -> SkeletonTopology:
+        """Build the topology of a skeleton's bones."""
+        bones = skeleton.bones
+        names = list(bones)
+        joint = [b.joint for b in bones.values()]
+        start = np.stack([b.start for b in bones.values()])
+        end = np.stack([b.end for b in bones.values()])
+        carried = {j: i for i, j in enumerate(joint)}
+        parent = np.full(len(names), -1, dtype=np.int64)
+        for i, j in enumerate(joint):
+            if j != ROOT:
+                parent[i] = carried.get(skeleton.joints[j].parent, -1)
+        child = np.full(len(names), -1, dtype=np.int64)
+        for a in range(len(names)):
+            kids = np.flatnonzero(parent == a)
+            if len(kids) == 1 and np.allclose(start[kids[0]], end[a], atol=1e-9):
+                child[a] = kids[0]
+        chained = np.zeros(len(names), dtype=bool)
+        chained[child[child >= 0]] = True
+        return cls(names, start, end, _unit(end - start), joint, parent, chained, child)
+
+
+class JLDMap:
+    """The JLD mapping of a fixed set of rest points, localised once, mapped per pose.
+
+    Parameters
+    ----------
+    skeleton : Skeleton
+        The rig (its ``spec`` holds the animator's JLD parameters).
+    points : array_like, shape (N, 3)
+        Rest positions (flesh nodes, skin vertices).
+    bone_id : array_like of int, shape (N,), optional
+        Bone each point is fixed to (-1: free). Fixed points move rigidly with their bone.
+
+    Examples
+    --------
+    >>> m = JLDMap(hand.skeleton, hand.flesh.points, hand.bone_id)  # doctest: +SKIP
+    >>> posed = m.map({"index_mcp": 45.0})  # doctest: +SKIP
+    """
+
+    def __init__(
+        self, skeleton: Skeleton, points: ArrayLike, bone_id: ArrayLike | None = None
+    ) -> None:
+        x = np.ascontiguousarray(points, dtype=np.float64)
+        if x.ndim != 2 or x.shape[1] != 3:
+            raise ValueError(f"points must have shape (N, 3), got {x.shape}")
+        n = len(x)
+        bid = np.full(n, -1, np.int64) if bone_id is None else np.asarray(bone_id, np.int64)
+        if bid.shape != (n,):
+            raise ValueError(f"bone_id must have shape ({n},), got {bid.shape}")
+        self.skeleton = skeleton
+        self.topology = topo = SkeletonTopology.from_skeleton(skeleton)
+        if bid.max(initial=-1) >= len(topo.names) or bid.min(initial=-1) < -1:
+            raise ValueError(f"bone_id must lie in -1..{len(topo.names) - 1}")
+        self.points = x
+        self.bone_id = bid
+        self._joint_names = skeleton.joint_names
+        self._jidx = {j: i for i, j in enumerate(self._joint_names)}
+        self._joint_setup()
+        seg = self._assign(x, bid)
+        self.segment = seg
+        self._main = self._localise(x, seg)
+        self._palm_setup(x, seg, bid)
+        self._rest = self._map(self._pose_data({}))
+
+    # --- set-up ---------------------------------------------------------------------
+
+    def _joint_setup(self) -> None:
+        """Per joint: centre, axes, plane, the bones it joins and the animator's values."""
+        sk, topo = self.skeleton, self.topology
+        nj = len(self._joint_names)
+        spec = sk.spec
+        self._jpos = np.stack([sk.joints[j].position for j in self._joint_names])
+        self._jflex = np.stack([sk.joints[j].flexion_axis for j in self._joint_names])
+        self._jpiv = np.stack(
+            [
+                sk.joints[j].pivot_axis if sk.joints[j].pivot_axis is not None else [0, 0, 1.0]
+                for j in self._joint_names
+            ]
+        )
+        self._jmax = np.array(
+            [max(sk.joints[j].flexion_limits[1], _EPS) for j in self._joint_names]
+        )
+        child_bone = np.array([topo.joint.index(j) for j in self._joint_names])
+        self._jchild = child_bone
+        self._jparent = topo.parent[child_bone]
+        self._jtwo = topo.chained[child_bone]
+        params = [spec.jld_params(j) for j in self._joint_names]
+        for key in ("proximal", "distal", "rounding", "muscle", "muscle_peak", "muscle_power"):
+            setattr(self, f"_j_{key}", np.array([getattr(p, key) for p in params]))
+        self._jspread = np.radians([p.spread for p in params])
+        # joint plane (bisector of the two bones, or normal to the child) and its frame
+        d_child = topo.direction[child_bone]
+        d_par = np.where(self._jtwo[:, None], topo.direction[np.maximum(self._jparent, 0)], d_child)
+        m = _unit(d_child + d_par)
+        a = self._jflex - np.einsum("ij,ij->i", self._jflex, m)[:, None] * m
+        a = _unit(a)
+        self._jm, self._ja = m, a
+        self._jn = np.cross(m, a)  # dorsal normal of the joint plane (y x flexion axis)
+        # radii: the parent's head in the flexion plane, the child's base
+        bones = list(sk.bones.values())
+        head = np.array(
+            [max(bones[p].head[1], bones[p].head[2]) if p >= 0 else 0.0 for p in self._jparent]
+        )
+        base = np.array([bones[c].base[1] for c in child_bone])
+        self._jrho0 = head
+        self._jrho1 = head + spec.gap + np.maximum(base, 0.002)
+        # flesh radius of the bone at each joint (rounding acts beyond it)
+        self._jbone_r = np.array(
+            [
+                max(bones[p].head[0], bones[p].head[2]) if p >= 0 else bones[c].base[0]
+                for p, c in zip(self._jparent, child_bone)
+            ]
+        )
+        # each bone's planes: proximal (its joint's, or normal to it) and distal
+        nb = len(topo.names)
+        self._bjoint = np.array([self._jidx.get(j, -1) for j in topo.joint])
+        self._p_pt = topo.start.copy()
+        self._p_n = np.where(
+            (self._bjoint >= 0)[:, None], self._jm[np.maximum(self._bjoint, 0)], topo.direction
+        )
+        self._p_n[~topo.chained] = topo.direction[~topo.chained]
+        self._d_pt = topo.end.copy()
+        self._d_n = topo.direction.copy()
+        self._d_joint = np.full(nb, -1, np.int64)
+        for b in range(nb):
+            c = topo.child[b]
+            if c >= 0:
+                self._d_n[b] = self._p_n[c]
+                self._d_joint[b] = self._bjoint[c]
+        self._b_r0 = np.array(
+            [
+                self._jbone_r[self._bjoint[b]] if self._bjoint[b] >= 0 else bones[b].base[0]
+                for b in range(nb)
+            ]
+        )
+        self._b_r1 = np.array(
+            [
+                self._jbone_r[self._d_joint[b]]
+                if self._d_joint[b] >= 0
+                else max(bones[b].head[[0, 2]])
+                for b in range(nb)
+            ]
+        )
+        self._b_normal = np.stack([b.frame[:, 2] for b in bones])  # dorsal
+        self._b_finger = np.array([b.part != spec.base_group for b in bones]) & (self._bjoint >= 0)
+        del nj
+
+    def _clamped_distance(self, x: NDArray, bones: NDArray | None = None) -> NDArray:
+        """Distance of every point to every bone's axis segment (or to ``bones``)."""
+        topo = self.topology
+        idx = np.arange(len(topo.names)) if bones is None else bones
+        a, ab = topo.start[idx], topo.end[idx] - topo.start[idx]
+        t = np.clip(((x[:, None] - a) * ab).sum(-1) / (ab * ab).sum(-1), 0.0, 1.0)
+        return np.linalg.norm(x[:, None] - (a + t[..., None] * ab), axis=-1)
+
+    def _ratio(self, x: NDArray, seg: NDArray) -> NDArray:
+        """Ratio between the bone's proximal and distal planes (0 and 1 on them)."""
+        sp = ((x - self._p_pt[seg]) * self._p_n[seg]).sum(-1)
+        sd = ((x - self._d_pt[seg]) * self._d_n[seg]).sum(-1)
+        den = sp - sd
+        length = np.linalg.norm(self.topology.end[seg] - self.topology.start[seg], axis=-1)
+        ortho = sp / np.maximum(
+            ((self._d_pt[seg] - self._p_pt[seg]) * self._p_n[seg]).sum(-1), _EPS
+        )
+        ok = den > 0.2 * length
+        return np.where(ok, sp / np.where(ok, den, 1.0), ortho)
+
+    def _assign(self, x: NDArray, bid: NDArray) -> NDArray:
+        """Proximal assignment: nearest axis, then across joint planes to the neighbour."""
+        topo = self.topology
+        seg = np.argmin(self._clamped_distance(x), axis=1)
+        free = bid < 0
+        seg[~free] = bid[~free]
+        for _ in range(3):
+            r = self._ratio(x, seg)
+            back = free & (r < 0.0) & topo.chained[seg]
+            seg[back] = topo.parent[seg[back]]
+            fwd = free & ~back & (r >= 1.0) & (topo.child[seg] >= 0)
+            seg[fwd] = topo.child[seg[fwd]]
+            # a one-sided child (a metacarpal on the carpus): behind its plane, the parent
+            r = self._ratio(x, seg)
+            off = free & (r < 0.0) & ~topo.chained[seg] & (topo.parent[seg] >= 0)
+            seg[off] = topo.parent[seg[off]]
+        return seg
+
+    def _localise(self, x: NDArray, seg: NDArray) -> dict[str, NDArray]:
+        """Segment, zone joint, weight and rounding/inflation coefficients of points."""
+        topo = self.topology
+        n = len(x)
+        r = self._ratio(x, seg)
+        proj = topo.start[seg] + r[:, None] * (topo.end[seg] - topo.start[seg])
+        off = x - proj
+        thick = np.linalg.norm(off, axis=1)
+        pj, dj = self._bjoint[seg], self._d_joint[seg]
+        has_p = (pj >= 0) & (topo.parent[seg] >= 0)
+        has_d = dj >= 0
+        # zone: the child side of the proximal joint, or the parent side of the distal one
+        child_side = has_p & ((r < 0.5) | ~has_d)
+        parent_side = has_d & ~child_side & (r >= 0.5)
+        zone = np.full(n, -1, np.int64)
+        zone[child_side] = pj[child_side]
+        zone[parent_side] = dj[parent_side]
+        zj = np.maximum(zone, 0)
+        # weight s: sector weight b about the joint, faded by the area ratio
+        w = x - self._jpos[zj]
+        axial = (w * self._ja[zj]).sum(-1)
+        rho = np.linalg.norm(w - axial[:, None] * self._ja[zj], axis=1)
+        psi = np.arctan2(np.abs((w * self._jn[zj]).sum(-1)), (w * self._jm[zj]).sum(-1))
+        spread = self._jspread[zj]
+        h = np.clip((np.pi - spread - psi) / (np.pi - 2.0 * spread), 0.0, 1.0)
+        big = smoothstep((rho - self._jrho0[zj]) / (self._jrho1[zj] - self._jrho0[zj]))
+        b = big * h
+        s = np.zeros(n)
+        two = self._jtwo[zj]
+        cs2 = child_side & two
+        s[cs2] = 1.0 - (1.0 - b[cs2]) * (1.0 - smoothstep(r[cs2] / self._j_proximal[zj][cs2]))
+        cs1 = child_side & ~two
+        s[cs1] = smoothstep(r[cs1] / self._j_proximal[zj][cs1])
+        ps = parent_side
+        s[ps] = b[ps] * (1.0 - smoothstep((1.0 - r[ps]) / self._j_distal[zj][ps]))
+        base = np.where(child_side, topo.parent[seg], seg)
+        # rounding (dorsal, in the areas of two-sided joints) and muscle inflation (palmar)
+        rc = np.clip(r, 0.0, 1.0)
+        ext_r = (1.0 - rc) * self._b_r0[seg] + rc * self._b_r1[seg]
+        beyond = np.clip(1.0 - ext_r / np.maximum(thick, _EPS), 0.0, 1.0)
+        round_j = np.full(n, -1, np.int64)
+        round_k = np.zeros(n)
+        near_p = has_p & self._jtwo[np.maximum(pj, 0)]
+        t_p = r / self._j_proximal[np.maximum(pj, 0)]
+        in_p = near_p & (t_p < 1.0)
+        round_j[in_p] = pj[in_p]
+        round_k[in_p] = (1.0 - np.clip(t_p[in_p], 0.0, 1.0)) ** 2
+        t_d = (1.0 - r) / self._j_distal[np.maximum(dj, 0)]
+        in_d = has_d & ~in_p & (t_d < 1.0)
+        round_j[in_d] = dj[in_d]
+        round_k[in_d] = (1.0 - np.clip(t_d[in_d], 0.0, 1.0)) ** 2
+        rj = np.maximum(round_j, 0)
+        cos_j = (off * self._jn[rj]).sum(-1) / np.maximum(thick, _EPS)
+        round_k *= self._j_rounding[rj] * np.clip(cos_j, 0.0, 1.0) * beyond
+        round_k[round_j < 0] = 0.0
+        musc_j = np.where(self._b_finger[seg], pj, -1)
+        mj = np.maximum(musc_j, 0)
+        cos_b = (off * self._b_normal[seg]).sum(-1) / np.maximum(thick, _EPS)
+        musc_k = (
+            self._j_muscle[mj]
+            * muscle_profile(r, self._j_muscle_peak[mj], self._j_muscle_power[mj])
+            * np.clip(-cos_b, 0.0, 1.0)
+            * beyond
+        )
+        musc_k[musc_j < 0] = 0.0
+        return {
+            "seg": seg,
+            "base": base,
+            "zone": zone,
+            "s": s,
+            "offset": off,
+            "ratio": r,
+            "thickness": thick,
+            "round_j": round_j,
+            "round_k": round_k,
+            "musc_j": musc_j,
+            "musc_k": musc_k,
+        }
+
+    def _palm_setup(self, x: NDArray, seg: NDArray, bid: NDArray) -> None:
+        """Two-segment covering: neighbour metacarpal, virtual segment, blend weight."""
+        topo = self.topology
+        carpal = [
+            b
+            for b in range(len(topo.names))
+            if topo.parent[b] >= 0 and not topo.chained[b] and topo.child[b] >= 0
+        ]
+        carpal.sort(key=lambda b: topo.end[b][0])  # radial to ulnar
+        nbrs = {b: [] for b in carpal}
+        for a, c in zip(carpal, carpal[1:]):
+            nbrs[a].append(c)
+            nbrs[c].append(a)
+        self.palm_bones = [topo.names[b] for b in carpal]
+        idx = np.flatnonzero(np.isin(seg, carpal) & (bid < 0))
+        if len(idx) == 0 or len(carpal) < 2:
+            self._palm = None
+            return
+        xp, sp = x[idx], seg[idx]
+        dist = self._clamped_distance(xp)
+        nb = np.full(len(idx), -1, np.int64)
+        best = np.full(len(idx), np.inf)
+        for b, ns in nbrs.items():
+            for c in ns:
+                take = (sp == b) & (dist[:, c] < best)
+                nb[take], best[take] = c, dist[take, c]
+        ps = self._project(xp, sp)
+        pn = self._project(xp, nb)
+        v = pn - ps
+        t = ((xp - ps) * v).sum(-1) / np.maximum((v * v).sum(-1), _EPS)
+        t0 = self.skeleton.spec.palm_proximity
+        w = 0.5 * smoothstep((t - t0) / (0.5 - t0))
+        keep = w > 0.0
+        idx, sp, nb, t, w, ps, pn = (
+            idx[keep],
+            sp[keep],
+            nb[keep],
+            t[keep],
+            w[keep],
+            ps[keep],
+            pn[keep],
+        )
+        ov = x[idx] - (ps + t[:, None] * (pn - ps))
+        ev = np.linalg.norm(ov, axis=1)
+        bones = list(self.skeleton.bones.values())
+        half = np.array(
+            [0.5 * (bones[a].shaft.mean() + bones[c].shaft.mean()) for a, c in zip(sp, nb)]
+        )
+        beyond = np.clip(1.0 - half / np.maximum(ev, _EPS), 0.0, 1.0)
+        self._palm = {
+            "idx": idx,
+            "neighbour": nb,
+            "w": w,
+            "ps": ps,
+            "pn": pn,
+            "bulge": (2.0 * w * beyond)[:, None] * ov,
+            "other": self._localise(x[idx], nb),
+        }
+
+    def _project(self, x: NDArray, seg: NDArray) -> NDArray:
+        """Orthogonal projection on each point's bone axis segment, clamped to it."""
+        a, ab = self.topology.start[seg], self.topology.end[seg] - self.topology.start[seg]
+        t = np.clip(((x - a) * ab).sum(-1) / (ab * ab).sum(-1), 0.0, 1.0)
+        return a + t[:, None] * ab
+
+    # --- mapping --------------------------------------------------------------------
+
+    def _pose_data(self, angles: Mapping[str, ArrayLike] | None) -> dict[str, NDArray]:
+        sk = self.skeleton
+        a = sk.check_angles(angles)
+        if next(iter(a.values())).shape != ():
+            raise ValueError("JLDMap maps one pose at a time (scalar angles)")
+        tf = sk.forward_kinematics(a)
+        flex = np.array([float(a[j]) for j in self._joint_names])
+        piv = np.array([float(a.get(j + PIVOT_SUFFIX, 0.0)) for j in self._joint_names])
+        return {
+            "T": np.stack([tf[n] for n in self.topology.names]),
+            "flex": flex,
+            "piv": piv,
+            "fr": np.clip(flex / self._jmax, 0.0, 1.0),
+        }
+
+    def _map_local(
+        self, x: NDArray, loc: dict[str, NDArray], pose: dict, extra: NDArray | None
+    ) -> NDArray:
+        """Single-segment mapping of points ``x`` localised as ``loc``."""
+        fr = pose["fr"]
+        grow = loc["round_k"] * fr[np.maximum(loc["round_j"], 0)]
+        grow = grow + loc["musc_k"] * fr[np.maximum(loc["musc_j"], 0)]
+        xt = x + grow[:, None] * loc["offset"]
+        if extra is not None:
+            xt = xt + extra
+        zone = loc["zone"]
+        zj = np.maximum(zone, 0)
+        s = np.where(zone >= 0, loc["s"], 0.0)
+        rot = rotation_matrices(self._jpiv[zj], s * pose["piv"][zj]) @ rotation_matrices(
+            self._jflex[zj], s * pose["flex"][zj]
+        )
+        c = self._jpos[zj]
+        local = c + np.einsum("nij,nj->ni", rot, xt - c)
+        T = pose["T"][loc["base"]]
+        return np.einsum("nij,nj->ni", T[:, :3, :3], local) + T[:, :3, 3]
+
+    def _map(self, pose: dict) -> NDArray:
+        x = self.points
+        out = self._map_local(x, self._main, pose, None)
+        palm = self._palm
+        if palm is not None:
+            idx = palm["idx"]
+            T = pose["T"]
+            sp, nb = self._main["seg"][idx], palm["neighbour"]
+            vf = np.einsum("nij,nj->ni", T[nb, :3, :3], palm["pn"]) + T[nb, :3, 3]
+            vf -= np.einsum("nij,nj->ni", T[sp, :3, :3], palm["ps"]) + T[sp, :3, 3]
+            f = np.linalg.norm(palm["pn"] - palm["ps"], axis=1) / np.maximum(
+                np.linalg.norm(vf, axis=1), _EPS
+            )
+            extra = (f**self.skeleton.spec.palm_bulge - 1.0)[:, None] * palm["bulge"]
+            sub = {k: v[idx] for k, v in self._main.items()}
+            mine = self._map_local(x[idx], sub, pose, extra)
+            other = self._map_local(x[idx], palm["other"], pose, extra)
+            w = palm["w"][:, None]
+            out[idx] = (1.0 - w) * mine + w * other
+        fixed = self.bone_id >= 0
+        if fixed.any():
+            T = pose["T"][self.bone_id[fixed]]
+            out[fixed] = np.einsum("nij,nj->ni", T[:, :3, :3], x[fixed]) + T[:, :3, 3]
+        return out
+
+    def displacement(self, angles: Mapping[str, ArrayLike] | None = None) -> NDArray[np.float64]:
+        """Displacement of every point from rest to the pose, shape (N, 3).
+
+        Parameters
+        ----------
+        angles : mapping of str to float, optional
+            Degrees by angle name; omitted angles stay at 0.
+
+        Returns
+        -------
+        ndarray, shape (N, 3)
+            Exactly 0 at the rest angles.
+
+        Raises
+        ------
+        RigError
+            On an unknown angle or one outside its limits.
+        """
+        return self._map(self._pose_data(angles)) - self._rest
+
+    def map(self, angles: Mapping[str, ArrayLike] | None = None) -> NDArray[np.float64]:
+        """Posed positions of the points, shape (N, 3); the rest points at rest angles."""
+        return self.points + self.displacement(angles)
+
+    @cached_property
+    def zone_joint(self) -> NDArray[np.int64]:
+        """Index (in ``skeleton.joint_names``) of the joint whose areas hold each point
+        (-1: the buffer of its segment); fixed points get their bone's joint."""
+        z = self._main["zone"].copy()
+        fixed = self.bone_id >= 0
+        z[fixed] = self._bjoint[self.bone_id[fixed]]
+        return z
+
+    @property
+    def ratio(self) -> NDArray[np.float64]:
+        """Ratio of each point along its segment (0 proximal joint plane, 1 distal)."""
+        return self._main["ratio"]
+
+    @property
+    def thickness(self) -> NDArray[np.float64]:
+        """Distance of each point from its projection on its segment (m)."""
+        return self._main["thickness"]
+
+    @property
+    def weight(self) -> NDArray[np.float64]:
+        """Fraction ``s`` of its zone joint's rotation each point takes (see module doc)."""
+        return self._main["s"]
