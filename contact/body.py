@@ -110,6 +110,13 @@ class ElasticBody:
         return surface_triangles(self.contact_faces.faces)
 
     @cached_property
+    def contact_closed(self) -> bool:
+        """Whether the contact faces close on themselves (then inside is a winding number)."""
+        from .surfacequery import TriangleSurface
+
+        return TriangleSurface(self.mesh.points, self.contact_triangles, name=self.name).is_closed
+
+    @cached_property
     def contact_nodes(self) -> NDArray[np.int64]:
         """Sorted nodes of the contact faces."""
         return self.contact_faces.nodes

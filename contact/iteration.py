@@ -148,6 +148,7 @@ class _Frame:
         self.margin = max(
             float(self.local[b.name].max()) for b in self.bodies
         )  # broad-phase margin: one element
+        self.extent = float(np.ptp(np.vstack([b.mesh.points for b in self.bodies]), axis=0).max())
         self.timings = {"geometry": 0.0, "contact solve": 0.0, "bodies": 0.0}
 
     def measure(self, u: dict[str, NDArray]) -> list[Penetrations]:
@@ -266,6 +267,33 @@ def _first_body_force(e: dict, lam: NDArray[np.float64], body: ElasticBody) -> N
     return (eb.T @ lam).reshape(-1, 3).sum(axis=0)
 
 
+def _record(
+    it: int,
+    rows: ContactRows,
+    added: int,
+    released: int,
+    change: float,
+    depth: float,
+    e: dict,
+    lam: NDArray[np.float64],
+    frame: _Frame,
+    omega: float,
+    support: float,
+) -> IterationRecord:
+    return IterationRecord(
+        iteration=it,
+        n_contacts=len(rows),
+        added=added,
+        released=released,
+        max_change=change,
+        max_penetration=depth,
+        total_force=_first_body_force(e, lam, frame.bodies[0]),
+        normal_force=float(np.nansum(lam)),
+        relaxation=omega,
+        max_support_force=support,
+    )
+
+
 def _key(rows: ContactRows) -> bytes:
     k = rows.keys
     return k[np.lexsort(k.T[::-1])].tobytes() if len(k) else b""
@@ -349,15 +377,18 @@ def _contact_space(frame: _Frame) -> FrameResult:
             for f in b.support_forces(states[b.name].reactions).values()
         ]
         history.append(
-            IterationRecord(
-                iteration=it,
-                n_contacts=len(rows),
-                added=added,
-                released=int(pulling.sum()),
-                max_change=change,
-                max_penetration=depth,
-                total_force=_first_body_force(e, lam, frame.bodies[0]),
-                max_support_force=float(max(supports, default=0.0)),
+            _record(
+                it,
+                rows,
+                added,
+                int(pulling.sum()),
+                change,
+                depth,
+                e,
+                lam,
+                frame,
+                1.0,
+                float(max(supports, default=0.0)),
             )
         )
         log.debug(
@@ -460,36 +491,39 @@ def _seed(frame: _Frame, dirichlet: str) -> FrameResult:
         size = max(float(np.abs(flat_new).max()), 1e-300)
         states = new_states
         solved = rows
+        if not np.isfinite(size) or size > frame.extent:
+            # a linear solution moving a node further than the scene is wide: the
+            # Dirichlet-Neumann iteration diverges (the ball is the softer side)
+            stop = "diverged"
+            history.append(_record(it, rows, 0, 0, change, np.nan, e, lam, frame, omega, 0.0))
+            break
         u = {name: s.u.reshape(-1, 3) for name, s in states.items()}
         scale = max(float(np.abs(lam).max()) if lam.size else 0.0, 1e-300)
         pulling = lam < -st.force_tolerance * scale
         grown, added, depth = frame.new_rows(rows, frame.measure(u), touching=False)
         supports = {b.name: b.support_forces(states[b.name].reactions) for b in frame.bodies}
         over = frame.over_limit(supports)
+        support = max(
+            (np.linalg.norm(f) for s in supports.values() for f in s.values()), default=0.0
+        )
         history.append(
-            IterationRecord(
-                iteration=it,
-                n_contacts=len(rows),
-                added=added,
-                released=int(pulling.sum()),
-                max_change=change,
-                max_penetration=depth,
-                total_force=_first_body_force(e, lam, frame.bodies[0]),
-                relaxation=omega,
-                max_support_force=float(
-                    max(
-                        (np.linalg.norm(f) for s in supports.values() for f in s.values()),
-                        default=0.0,
-                    )
-                ),
+            _record(
+                it,
+                rows,
+                added,
+                int(pulling.sum()),
+                change,
+                depth,
+                e,
+                lam,
+                frame,
+                omega,
+                float(support),
             )
         )
         log.debug("seed: iteration %d, %d contacts, change %.3g", it, len(rows), change)
         if over:
             stop = _limit_reason(over)
-            break
-        if not np.isfinite(change) or change > 1e6 * max(frame.margin, 1e-300):
-            stop = "diverged"
             break
         if it > 1 and change <= st.tolerance * size and not added and not pulling.any():
             converged, stop = True, "converged"

@@ -171,7 +171,9 @@ def measure(pair: ContactPair, u: dict[str, NDArray[np.float64]], margin: float)
     nodes, xs = nodes[box], xs[box]
     surface = TriangleSurface(xm, tri, name=f"{master.name} contact surface")
     c = surface.closest(xs)
-    inside = surface.inside(xs)
+    # a closed contact surface (a ball, a skin) tells inside by its winding number, robust
+    # in concave places; an open one (a pad's top) by the side of the pseudo-normal
+    inside = surface.inside(xs) if master.contact_closed else c.side(xs) < 0
     gap = np.where(inside, -c.distance, c.distance)
     near = gap < margin
     return Penetrations(

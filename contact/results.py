@@ -29,6 +29,9 @@ class IterationRecord:
     total_force : ndarray, shape (3,)
         Sum of the contact forces on the body (N); for several bodies, on the first one
         (the ball).
+    normal_force : float
+        Sum of the normal contact forces of every contact (N): for a ball squeezed
+        between two plates, twice the squeeze.
     relaxation : float
         Relaxation factor applied to the Neumann side's answer (seed loop; 1 otherwise).
     max_support_force : float
@@ -42,6 +45,7 @@ class IterationRecord:
     max_change: float
     max_penetration: float
     total_force: NDArray[np.float64]
+    normal_force: float = 0.0
     relaxation: float = 1.0
     max_support_force: float = 0.0
 
