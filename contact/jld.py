@@ -63,6 +63,7 @@ from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.spatial import cKDTree
 
 from .rigspec import ROOT
 from .skeleton import PIVOT_SUFFIX, Skeleton, rotation_matrices
@@ -70,6 +71,9 @@ from .skeleton import PIVOT_SUFFIX, Skeleton, rotation_matrices
 __all__ = ["JLDMap", "SkeletonTopology", "muscle_profile", "smoothstep"]
 
 _EPS = 1e-12
+#: Along a proximal phalanx, the blend with the neighbouring finger fades out between these
+#: ratios (the web between the fingers ends about mid-phalanx in the shipped hand).
+_WEB = (0.55, 0.8)
 
 
 def smoothstep(t: ArrayLike) -> NDArray[np.float64]:
@@ -159,6 +163,9 @@ class JLDMap:
         Rest positions (flesh nodes, skin vertices).
     bone_id : array_like of int, shape (N,), optional
         Bone each point is fixed to (-1: free). Fixed points move rigidly with their bone.
+    reference : (points, bone_id), optional
+        Rest points fixed to bones that measure the distance to each bone's surface (the
+        flesh nodes of the hand when mapping its skin); default: the fixed ``points``.
 
     Examples
     --------
@@ -167,7 +174,11 @@ class JLDMap:
     """
 
     def __init__(
-        self, skeleton: Skeleton, points: ArrayLike, bone_id: ArrayLike | None = None
+        self,
+        skeleton: Skeleton,
+        points: ArrayLike,
+        bone_id: ArrayLike | None = None,
+        reference: tuple[ArrayLike, ArrayLike] | None = None,
     ) -> None:
         x = np.ascontiguousarray(points, dtype=np.float64)
         if x.ndim != 2 or x.shape[1] != 3:
@@ -185,6 +196,10 @@ class JLDMap:
         self._joint_names = skeleton.joint_names
         self._jidx = {j: i for i, j in enumerate(self._joint_names)}
         self._joint_setup()
+        ref_x, ref_id = (x, bid) if reference is None else reference
+        ref_x = np.asarray(ref_x, dtype=np.float64)
+        ref_id = np.asarray(ref_id, dtype=np.int64)
+        self._trees = {int(b): cKDTree(ref_x[ref_id == b]) for b in np.unique(ref_id[ref_id >= 0])}
         seg = self._assign(x, bid)
         self.segment = seg
         self._main = self._localise(x, seg)
@@ -216,7 +231,6 @@ class JLDMap:
         params = [spec.jld_params(j) for j in self._joint_names]
         for key in ("proximal", "distal", "rounding", "muscle", "muscle_peak", "muscle_power"):
             setattr(self, f"_j_{key}", np.array([getattr(p, key) for p in params]))
-        self._jspread = np.radians([p.spread for p in params])
         # joint plane (bisector of the two bones, or normal to the child) and its frame
         d_child = topo.direction[child_bone]
         d_par = np.where(self._jtwo[:, None], topo.direction[np.maximum(self._jparent, 0)], d_child)
@@ -225,21 +239,6 @@ class JLDMap:
         a = _unit(a)
         self._jm, self._ja = m, a
         self._jn = np.cross(m, a)  # dorsal normal of the joint plane (y x flexion axis)
-        # radii: the parent's head in the flexion plane, the child's base
-        bones = list(sk.bones.values())
-        head = np.array(
-            [max(bones[p].head[1], bones[p].head[2]) if p >= 0 else 0.0 for p in self._jparent]
-        )
-        base = np.array([bones[c].base[1] for c in child_bone])
-        self._jrho0 = head
-        self._jrho1 = head + spec.gap + np.maximum(base, 0.002)
-        # flesh radius of the bone at each joint (rounding acts beyond it)
-        self._jbone_r = np.array(
-            [
-                max(bones[p].head[0], bones[p].head[2]) if p >= 0 else bones[c].base[0]
-                for p, c in zip(self._jparent, child_bone)
-            ]
-        )
         # each bone's planes: proximal (its joint's, or normal to it) and distal
         nb = len(topo.names)
         self._bjoint = np.array([self._jidx.get(j, -1) for j in topo.joint])
@@ -256,20 +255,11 @@ class JLDMap:
             if c >= 0:
                 self._d_n[b] = self._p_n[c]
                 self._d_joint[b] = self._bjoint[c]
-        self._b_r0 = np.array(
-            [
-                self._jbone_r[self._bjoint[b]] if self._bjoint[b] >= 0 else bones[b].base[0]
-                for b in range(nb)
-            ]
-        )
-        self._b_r1 = np.array(
-            [
-                self._jbone_r[self._d_joint[b]]
-                if self._d_joint[b] >= 0
-                else max(bones[b].head[[0, 2]])
-                for b in range(nb)
-            ]
-        )
+        bones = list(sk.bones.values())
+        self._shaft = np.array([b.shaft.mean() for b in bones])
+        hubs = [b for b in range(nb) if topo.child[b] < 0 and (topo.parent == b).sum() > 1]
+        self._hubs = np.array(hubs, dtype=np.int64)
+        self._hub_children = [int(c) for c in np.flatnonzero(np.isin(topo.parent, hubs))]
         self._b_normal = np.stack([b.frame[:, 2] for b in bones])  # dorsal
         self._b_finger = np.array([b.part != spec.base_group for b in bones]) & (self._bjoint >= 0)
         del nj
@@ -312,6 +302,23 @@ class JLDMap:
             seg[off] = topo.parent[seg[off]]
         return seg
 
+    def _surface_distance(self, x: NDArray, bones: NDArray) -> NDArray:
+        """Distance from each point to the surface of the bone ``bones[i]`` (m).
+
+        Measured to the nearest rest node fixed to that bone (the nodes that move rigidly
+        with it); without such nodes, to the bone's axis less its mean shaft half-width.
+        """
+        out = np.empty(len(x))
+        for b in np.unique(bones):
+            at = bones == b
+            tree = self._trees.get(int(b))
+            if tree is not None:
+                out[at] = tree.query(x[at])[0]
+            else:
+                d = self._clamped_distance(x[at], np.array([b]))[:, 0]
+                out[at] = np.maximum(d - self._shaft[b], 0.0)
+        return out
+
     def _localise(self, x: NDArray, seg: NDArray) -> dict[str, NDArray]:
         """Segment, zone joint, weight and rounding/inflation coefficients of points."""
         topo = self.topology
@@ -322,36 +329,38 @@ class JLDMap:
         thick = np.linalg.norm(off, axis=1)
         pj, dj = self._bjoint[seg], self._d_joint[seg]
         has_p = (pj >= 0) & (topo.parent[seg] >= 0)
+        # several joints on the segment's far end (the carpus): the nearest one's areas
+        many = np.isin(seg, self._hubs) & (dj < 0)
+        if many.any():
+            kids = self._hub_children
+            dk = np.stack([self._surface_distance(x[many], np.full(many.sum(), c)) for c in kids])
+            best = np.array(kids)[np.argmin(dk, axis=0)]
+            ok = topo.parent[best] == seg[many]
+            dj = dj.copy()
+            dj[np.flatnonzero(many)[ok]] = self._bjoint[best[ok]]
         has_d = dj >= 0
         # zone: the child side of the proximal joint, or the parent side of the distal one
         child_side = has_p & ((r < 0.5) | ~has_d)
-        parent_side = has_d & ~child_side & (r >= 0.5)
+        parent_side = has_d & ~child_side
         zone = np.full(n, -1, np.int64)
         zone[child_side] = pj[child_side]
         zone[parent_side] = dj[parent_side]
         zj = np.maximum(zone, 0)
-        # weight s: sector weight b about the joint, faded by the area ratio
-        w = x - self._jpos[zj]
-        axial = (w * self._ja[zj]).sum(-1)
-        rho = np.linalg.norm(w - axial[:, None] * self._ja[zj], axis=1)
-        psi = np.arctan2(np.abs((w * self._jn[zj]).sum(-1)), (w * self._jm[zj]).sum(-1))
-        spread = self._jspread[zj]
-        h = np.clip((np.pi - spread - psi) / (np.pi - 2.0 * spread), 0.0, 1.0)
-        big = smoothstep((rho - self._jrho0[zj]) / (self._jrho1[zj] - self._jrho0[zj]))
-        b = big * h
+        # the weight between the two bones of the joint: their surface distances
+        inz = zone >= 0
+        d_par = np.zeros(n)
+        d_chi = np.zeros(n)
+        d_par[inz] = self._surface_distance(x[inz], self._jparent[zj[inz]])
+        d_chi[inz] = self._surface_distance(x[inz], self._jchild[zj[inz]])
+        between = d_par / np.maximum(d_par + d_chi, _EPS)
         s = np.zeros(n)
-        two = self._jtwo[zj]
-        cs2 = child_side & two
-        s[cs2] = 1.0 - (1.0 - b[cs2]) * (1.0 - smoothstep(r[cs2] / self._j_proximal[zj][cs2]))
-        cs1 = child_side & ~two
-        s[cs1] = smoothstep(r[cs1] / self._j_proximal[zj][cs1])
+        cs = child_side
+        s[cs] = 1.0 - (1.0 - between[cs]) * (1.0 - smoothstep(r[cs] / self._j_proximal[zj][cs]))
         ps = parent_side
-        s[ps] = b[ps] * (1.0 - smoothstep((1.0 - r[ps]) / self._j_distal[zj][ps]))
+        s[ps] = between[ps] * (1.0 - smoothstep((1.0 - r[ps]) / self._j_distal[zj][ps]))
         base = np.where(child_side, topo.parent[seg], seg)
         # rounding (dorsal, in the areas of two-sided joints) and muscle inflation (palmar)
-        rc = np.clip(r, 0.0, 1.0)
-        ext_r = (1.0 - rc) * self._b_r0[seg] + rc * self._b_r1[seg]
-        beyond = np.clip(1.0 - ext_r / np.maximum(thick, _EPS), 0.0, 1.0)
+        beyond = np.clip(self._surface_distance(x, seg) / np.maximum(thick, _EPS), 0.0, 1.0)
         round_j = np.full(n, -1, np.int64)
         round_k = np.zeros(n)
         near_p = has_p & self._jtwo[np.maximum(pj, 0)]
@@ -359,9 +368,10 @@ class JLDMap:
         in_p = near_p & (t_p < 1.0)
         round_j[in_p] = pj[in_p]
         round_k[in_p] = (1.0 - np.clip(t_p[in_p], 0.0, 1.0)) ** 2
-        t_d = (1.0 - r) / self._j_distal[np.maximum(dj, 0)]
-        in_d = has_d & ~in_p & (t_d < 1.0)
-        round_j[in_d] = dj[in_d]
+        d_two = (self._d_joint[seg] >= 0) & self._jtwo[np.maximum(self._d_joint[seg], 0)]
+        t_d = (1.0 - r) / self._j_distal[np.maximum(self._d_joint[seg], 0)]
+        in_d = d_two & ~in_p & (t_d < 1.0)
+        round_j[in_d] = self._d_joint[seg][in_d]
         round_k[in_d] = (1.0 - np.clip(t_d[in_d], 0.0, 1.0)) ** 2
         rj = np.maximum(round_j, 0)
         cos_j = (off * self._jn[rj]).sum(-1) / np.maximum(thick, _EPS)
@@ -392,53 +402,63 @@ class JLDMap:
         }
 
     def _palm_setup(self, x: NDArray, seg: NDArray, bid: NDArray) -> None:
-        """Two-segment covering: neighbour metacarpal, virtual segment, blend weight."""
+        """Two-segment covering between neighbouring rays (metacarpal and proximal phalanx).
+
+        The rays are the chains of bones hanging on the carpus (one per metacarpal), in
+        order across the hand (by the x of the metacarpal's end). A free point of a
+        metacarpal or a proximal phalanx is also localised on the nearest such bone of
+        an adjacent ray; the virtual segment joins its two projections. Along a proximal
+        phalanx the blend fades out past the web (``_WEB`` of its length), where the
+        fingers part.
+        """
         topo = self.topology
+        nbones = len(topo.names)
         carpal = [
             b
-            for b in range(len(topo.names))
+            for b in range(nbones)
             if topo.parent[b] >= 0 and not topo.chained[b] and topo.child[b] >= 0
         ]
         carpal.sort(key=lambda b: topo.end[b][0])  # radial to ulnar
-        nbrs = {b: [] for b in carpal}
-        for a, c in zip(carpal, carpal[1:]):
-            nbrs[a].append(c)
-            nbrs[c].append(a)
         self.palm_bones = [topo.names[b] for b in carpal]
-        idx = np.flatnonzero(np.isin(seg, carpal) & (bid < 0))
+        ray = np.full(nbones, -1, np.int64)
+        depth = np.full(nbones, -1, np.int64)
+        for k, b in enumerate(carpal):
+            d, c = 0, b
+            while c >= 0:
+                ray[c], depth[c] = k, d
+                c, d = topo.child[c], d + 1
+        near = (ray >= 0) & (depth <= 1)
+        idx = np.flatnonzero(near[seg] & (bid < 0))
         if len(idx) == 0 or len(carpal) < 2:
             self._palm = None
             return
         xp, sp = x[idx], seg[idx]
-        dist = self._clamped_distance(xp)
-        nb = np.full(len(idx), -1, np.int64)
-        best = np.full(len(idx), np.inf)
-        for b, ns in nbrs.items():
-            for c in ns:
-                take = (sp == b) & (dist[:, c] < best)
-                nb[take], best[take] = c, dist[take, c]
+        cand = np.flatnonzero(near)
+        dist = self._clamped_distance(xp, cand)
+        adjacent = np.abs(ray[cand][None, :] - ray[sp][:, None]) == 1
+        dist[~adjacent] = np.inf
+        nb = cand[np.argmin(dist, axis=1)]
         ps = self._project(xp, sp)
         pn = self._project(xp, nb)
         v = pn - ps
         t = ((xp - ps) * v).sum(-1) / np.maximum((v * v).sum(-1), _EPS)
+        # where the point lies between the two bone surfaces: 0 on its own, 1 on the other
+        d_own = self._surface_distance(xp, sp)
+        d_nb = self._surface_distance(xp, nb)
+        gap = d_own / np.maximum(d_own + d_nb, _EPS)
         t0 = self.skeleton.spec.palm_proximity
-        w = 0.5 * smoothstep((t - t0) / (0.5 - t0))
+        w = 0.5 * smoothstep((gap - t0) / (0.5 - t0))
+        r = self._main["ratio"][idx]
+        fade = np.where(depth[sp] >= 1, 1.0 - smoothstep((r - _WEB[0]) / (_WEB[1] - _WEB[0])), 1.0)
+        w *= fade
         keep = w > 0.0
-        idx, sp, nb, t, w, ps, pn = (
-            idx[keep],
-            sp[keep],
-            nb[keep],
-            t[keep],
-            w[keep],
-            ps[keep],
-            pn[keep],
-        )
+        idx, sp, nb, t, w = idx[keep], sp[keep], nb[keep], t[keep], w[keep]
+        ps, pn = ps[keep], pn[keep]
         ov = x[idx] - (ps + t[:, None] * (pn - ps))
         ev = np.linalg.norm(ov, axis=1)
         bones = list(self.skeleton.bones.values())
-        half = np.array(
-            [0.5 * (bones[a].shaft.mean() + bones[c].shaft.mean()) for a, c in zip(sp, nb)]
-        )
+        shaft = np.array([b.shaft.mean() for b in bones])
+        half = 0.5 * (shaft[sp] + shaft[nb])
         beyond = np.clip(1.0 - half / np.maximum(ev, _EPS), 0.0, 1.0)
         self._palm = {
             "idx": idx,
@@ -545,8 +565,10 @@ class JLDMap:
 
     @cached_property
     def zone_joint(self) -> NDArray[np.int64]:
-        """Index (in ``skeleton.joint_names``) of the joint whose areas hold each point
-        (-1: the buffer of its segment); fixed points get their bone's joint."""
+        """Joint whose areas hold each point (index in ``skeleton.joint_names``).
+
+        -1 marks the buffer of a segment; fixed points get their bone's joint.
+        """
         z = self._main["zone"].copy()
         fixed = self.bone_id >= 0
         z[fixed] = self._bjoint[self.bone_id[fixed]]
