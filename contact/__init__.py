@@ -14,17 +14,22 @@ from .errors import RigError
 from .hand import Hand, load_hand
 from .metaballs import skin_surface
 from .skeleton import Skeleton, load_skeleton
+from .surfacequery import Closest, SurfaceError, TriangleSurface, surface_of_mesh
 
 __all__ = [
     "Ball",
     "BallError",
     "BallSpec",
+    "Closest",
     "Hand",
     "RigError",
     "Skeleton",
+    "SurfaceError",
+    "TriangleSurface",
     "bone_surfaces",
     "load_hand",
     "load_skeleton",
     "make_ball",
     "skin_surface",
+    "surface_of_mesh",
 ]
