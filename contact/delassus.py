@@ -22,18 +22,16 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg as sla
 import scipy.sparse as sp
 from numpy.typing import NDArray
+
+import fem
+from fem.statics import solve_saddle
 
 from .body import ElasticBody
 from .errors import ContactError
 
-__all__ = ["RANK_TOL", "BodyState", "ContactSpace"]
-
-#: Rigid modes of a free body whose singular value in ``G`` is below this fraction of the
-#: largest are taken as not held by the contacts.
-RANK_TOL = 1e-8
+__all__ = ["BodyState", "ContactSpace"]
 
 
 @dataclass(frozen=True)
@@ -152,50 +150,11 @@ class ContactSpace:
 def _saddle(
     w: NDArray, g: NDArray, rhs: NDArray, c: NDArray, free: list[str]
 ) -> tuple[NDArray, NDArray]:
-    """Solve ``[[W, G], [G^T, 0]] [lam; a] = [rhs; c]``.
-
-    Rigid modes the contacts do not hold (singular values of ``G`` below ``1e-8`` of the
-    largest: a frictionless sphere's spin, a ball between two parallel plates sliding
-    sideways) are left out, with ``a = 0`` in them, once the loads are checked to be in
-    balance in them. ``W`` is factored by Cholesky and the rigid amplitudes solved from
-    the small Schur complement ``G^T W^-1 G``.
-    """
-    m, r = g.shape
-    a = np.zeros(r)
-    if r:
-        _, sv, vt = np.linalg.svd(g, full_matrices=False) if m else (None, np.zeros(0), None)
-        held = sv > RANK_TOL * sv.max() if sv.size and sv.max() > 0 else np.zeros(0, bool)
-        v1 = vt[held].T if held.any() else np.zeros((r, 0))
-        v0 = np.linalg.svd(v1.T)[2][v1.shape[1] :].T if v1.shape[1] else np.eye(r)
-        scale = max(float(np.abs(c).max(initial=0.0)), 1e-300)
-        if v0.shape[1] and np.abs(v0.T @ c).max() > 1e-8 * scale:
-            raise ContactError(
-                f"nothing holds {', '.join(free)}: the contacts do not hold it in every "
-                "direction and its loads are out of balance in the free ones"
-            )
-        g1, c1 = g @ v1, v1.T @ c
-    else:
-        v1 = np.zeros((0, 0))
-        g1, c1 = np.zeros((m, 0)), np.zeros(0)
-    if m == 0:
-        return np.zeros(0), a
+    """Solve ``[[W, G], [G^T, 0]] [lam; a] = [rhs; c]`` (see :func:`fem.statics.solve_saddle`)."""
     try:
-        cw = sla.cho_factor(w)
-    except sla.LinAlgError:
-        # dependent contact rows (a node against two facets meeting at it): least squares
-        k = g1.shape[1]
-        big = np.block([[w, g1], [g1.T, np.zeros((k, k))]])
-        sol, *_ = np.linalg.lstsq(big, np.concatenate([rhs, c1]), rcond=1e-12)
-        lam, b = sol[:m], sol[m:]
-    else:
-        if g1.shape[1]:
-            wg = sla.cho_solve(cw, g1)
-            wr = sla.cho_solve(cw, rhs)
-            b = np.linalg.solve(g1.T @ wg, g1.T @ wr - c1)
-            lam = wr - wg @ b
-        else:
-            b = np.zeros(0)
-            lam = sla.cho_solve(cw, rhs)
-    if r:
-        a = v1 @ b
-    return lam, a
+        return solve_saddle(w, g, rhs, c)
+    except fem.LoadError:
+        raise ContactError(
+            f"nothing holds {', '.join(free)}: the contacts do not hold it in every "
+            "direction and its loads are out of balance in the free ones"
+        ) from None

@@ -144,6 +144,18 @@ class _Frame:
             if p.rigid and p.master not in self.planes:
                 raise ContactError(f"contact pair {p.name}: its plane is not in the scene")
         self.settings = settings
+        # the pair in the other direction between the same two bodies, -1 if none
+        self.reverse = [
+            next(
+                (
+                    j
+                    for j, q in enumerate(self.pairs)
+                    if not p.rigid and q.slave is p.master and q.master is p.slave
+                ),
+                -1,
+            )
+            for p in self.pairs
+        ]
         self.local = {b.name: np.sqrt(np.maximum(b.node_areas, 1e-300)) for b in self.bodies}
         self.margin = max(
             float(self.local[b.name].max()) for b in self.bodies
@@ -178,6 +190,13 @@ class _Frame:
             fresh = ~np.isin(p.nodes, rows.node[rows.pair == i])
             depth = max(depth, float(np.max(-p.gap, initial=0.0)))
             hit = fresh & ((p.gap < tol) if touching else (p.gap < -tol))
+            j = self.reverse[i]
+            if j >= 0 and hit.any():
+                # node on node: a slave node whose closest point is a master vertex that
+                # is itself in contact the other way round would repeat that contact's row
+                vertex = p.weights.max(axis=1) >= 1.0 - 1e-9
+                corner = p.facet[np.arange(p.nodes.size), p.weights.argmax(axis=1)]
+                hit &= ~(vertex & np.isin(corner, rows.node[rows.pair == j]))
             if hit.any():
                 rows = rows.extended(self.pairs, i, p.select(hit))
                 added += int(hit.sum())

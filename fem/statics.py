@@ -29,7 +29,13 @@ from numpy.typing import ArrayLike, NDArray
 from .errors import LoadError, SolverError
 from .linsolve import factorize
 
-__all__ = ["StaticSolution", "StaticSolver", "check_balance", "rigid_body_modes"]
+__all__ = [
+    "StaticSolution",
+    "StaticSolver",
+    "check_balance",
+    "rigid_body_modes",
+    "solve_saddle",
+]
 
 log = logging.getLogger(__name__)
 
@@ -37,6 +43,9 @@ log = logging.getLogger(__name__)
 BLOCK = 256
 #: Constraint rows whose mutual compliance is kept (a dense square of this size at most).
 ROW_CACHE = 8192
+#: Rigid modes whose singular value in the constraint matrix is below this fraction of the
+#: largest are taken as not held (see :func:`solve_saddle`).
+RANK_TOL = 1e-8
 
 
 def rigid_body_modes(points: ArrayLike) -> NDArray[np.float64]:
@@ -394,22 +403,58 @@ def _spd_solve(s: NDArray, rhs: NDArray) -> NDArray:
 
 def _saddle(s: NDArray, e_phi: NDArray, rhs: NDArray, phi_f: NDArray) -> tuple[NDArray, NDArray]:
     """Solve ``[[S, -EP], [-EP^T, 0]] [lam; a] = [rhs; -P^T f]`` for a free body."""
-    m = s.shape[0]
-    big = np.zeros((m + 6, m + 6))
-    big[:m, :m] = s
-    big[:m, m:] = -e_phi
-    big[m:, :m] = -e_phi.T
-    b = np.concatenate([rhs, -phi_f])
-    sv = np.linalg.svd(e_phi, compute_uv=False) if m else np.zeros(6)
-    if sv.size < 6 or sv[-1] <= 1e-10 * max(sv[0], 1e-300):
-        # constraints leave rigid modes free: least squares, and check the balance
-        sol, *_ = np.linalg.lstsq(big, b, rcond=1e-12)
-        res = big @ sol - b
-        if np.linalg.norm(res) > 1e-8 * max(np.linalg.norm(b), 1e-300):
+    return solve_saddle(s, -e_phi, rhs, -phi_f)
+
+
+def solve_saddle(w: NDArray, g: NDArray, rhs: NDArray, c: NDArray) -> tuple[NDArray, NDArray]:
+    """Solve ``[[W, G], [G^T, 0]] [lam; a] = [rhs; c]``: constraint forces and rigid modes.
+
+    ``W`` (m x m) is the compliance of the constraints, ``G`` (m x r) the constraints'
+    values of the rigid modes, ``c`` minus the loads in the modes. Rigid modes the
+    constraints do not hold (singular values of ``G`` below :data:`RANK_TOL` of the
+    largest: a frictionless sphere's spin, a ball between two parallel plates sliding
+    sideways) are left out with ``a = 0`` in them, once the loads are checked to be in
+    balance in them. ``W`` is factored by Cholesky and the amplitudes solved from the
+    small Schur complement ``G^T W^-1 G``, so that weakly held modes stay well posed.
+
+    Raises
+    ------
+    LoadError
+        If the loads are out of balance in a mode the constraints do not hold.
+    """
+    m, r = g.shape
+    a = np.zeros(r)
+    g1, c1, v1 = np.zeros((m, 0)), np.zeros(0), np.zeros((r, 0))
+    if r:
+        sv, vt = (np.linalg.svd(g, full_matrices=False)[1:]) if m else (np.zeros(0), None)
+        held = sv > RANK_TOL * sv.max() if sv.size and sv.max() > 0 else np.zeros(0, bool)
+        if held.any():
+            v1 = vt[held].T
+        v0 = np.linalg.svd(v1.T)[2][v1.shape[1] :].T if v1.shape[1] else np.eye(r)
+        scale = max(float(np.abs(c).max(initial=0.0)), 1e-300)
+        if v0.shape[1] and np.abs(v0.T @ c).max() > 1e-8 * scale:
             raise LoadError(
-                "the prescribed DOFs do not hold the free body in every direction and the "
+                "the constraints do not hold the free body in every direction and the "
                 "loads are not in balance in the free directions"
             )
+        g1, c1 = g @ v1, v1.T @ c
+    if m == 0:
+        return np.zeros(0), a
+    try:
+        cw = sla.cho_factor(w)
+    except sla.LinAlgError:
+        # dependent rows (a node against two facets meeting at it): least squares
+        k = g1.shape[1]
+        big = np.block([[w, g1], [g1.T, np.zeros((k, k))]])
+        sol, *_ = np.linalg.lstsq(big, np.concatenate([rhs, c1]), rcond=1e-12)
+        lam, b = sol[:m], sol[m:]
     else:
-        sol = sla.solve(big, b, assume_a="sym")
-    return sol[:m], sol[m:]
+        lam = sla.cho_solve(cw, rhs)
+        b = np.zeros(0)
+        if g1.shape[1]:
+            wg = sla.cho_solve(cw, g1)
+            b = np.linalg.solve(g1.T @ wg, g1.T @ lam - c1)
+            lam = lam - wg @ b
+    if r:
+        a = v1 @ b
+    return lam, a
