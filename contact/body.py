@@ -105,9 +105,9 @@ class ElasticBody:
     @cached_property
     def contact_triangles(self) -> NDArray[np.int64]:
         """The contact faces as outward triangles (quads split), in mesh node numbers."""
-        from .pairs import surface_triangles
+        from .surfacequery import surface_of_mesh
 
-        return surface_triangles(self.contact_faces.faces)
+        return surface_of_mesh(self.mesh, self.contact_faces)[1]
 
     @cached_property
     def contact_closed(self) -> bool:

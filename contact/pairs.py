@@ -33,25 +33,9 @@ from numpy.typing import NDArray
 import fem
 
 from .body import ElasticBody
-from .errors import ContactError
 from .geometry import Plane
 
-__all__ = ["ContactPair", "ContactRows", "Penetrations", "surface_triangles"]
-
-
-def surface_triangles(faces: dict[str, NDArray[np.int64]]) -> NDArray[np.int64]:
-    """Outward triangles of a set of boundary faces, quads split along their 0-2 diagonal."""
-    parts = [np.zeros((0, 3), dtype=np.int64)]
-    for kind, f in faces.items():
-        f = np.asarray(f, dtype=np.int64)
-        if f.shape[1] == 3:
-            parts.append(f)
-        elif f.shape[1] == 4:
-            parts.append(f[:, [0, 1, 2]])
-            parts.append(f[:, [0, 2, 3]])
-        else:
-            raise ContactError(f"faces of kind {kind!r} have {f.shape[1]} nodes")
-    return np.concatenate(parts)
+__all__ = ["ContactPair", "ContactRows", "Penetrations", "measure"]
 
 
 @dataclass(frozen=True)
