@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-__all__ = ["ContactError", "RigError"]
+__all__ = ["ContactError", "PoseError", "RigError"]
 
 
 class ContactError(Exception):
@@ -14,3 +14,23 @@ class RigError(ContactError, ValueError):
 
     The message is one line that names the file and key path, or the joint, at fault.
     """
+
+
+class PoseError(RigError):
+    """A pose the flesh mesh cannot take: the mapping inverts an element.
+
+    Attributes
+    ----------
+    joint : str
+        The joint whose motion inverted it (the most bent joint acting on its nodes).
+    element : int
+        Index of the first inverted tetrahedron.
+    elements : tuple of int
+        Every inverted tetrahedron.
+    """
+
+    def __init__(self, message: str, joint: str, element: int, elements: tuple[int, ...]):
+        super().__init__(message)
+        self.joint = joint
+        self.element = element
+        self.elements = elements

@@ -66,7 +66,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
 from .rigspec import ROOT
-from .skeleton import PIVOT_SUFFIX, Skeleton, rotation_matrices
+from .skeleton import PIVOT_SUFFIX, Skeleton
 
 __all__ = ["JLDMap", "SkeletonTopology", "muscle_profile", "smoothstep"]
 
@@ -93,6 +93,13 @@ def muscle_profile(ratio: ArrayLike, peak: ArrayLike, power: ArrayLike) -> NDArr
     peak = np.asarray(peak, dtype=np.float64)
     a = np.where(r <= peak, r / peak, (1.0 - r) / (1.0 - peak))
     return (a * np.exp(1.0 - a)) ** power
+
+
+def _rotate(v: NDArray, axis: NDArray, angle: NDArray) -> NDArray:
+    """Rotate vectors ``v`` about unit ``axis`` by ``angle`` (radians), row by row."""
+    c, s = np.cos(angle)[:, None], np.sin(angle)[:, None]
+    kv = (axis * v).sum(-1)[:, None]
+    return v * c + np.cross(axis, v) * s + axis * kv * (1.0 - c)
 
 
 def _unit(v: NDArray) -> NDArray:
@@ -352,7 +359,8 @@ class JLDMap:
         d_chi = np.zeros(n)
         d_par[inz] = self._surface_distance(x[inz], self._jparent[zj[inz]])
         d_chi[inz] = self._surface_distance(x[inz], self._jchild[zj[inz]])
-        between = d_par / np.maximum(d_par + d_chi, _EPS)
+        dp, dc = np.sqrt(d_par), np.sqrt(d_chi)
+        between = dp / np.maximum(dp + dc, _EPS)
         s = np.zeros(n)
         cs = child_side
         s[cs] = 1.0 - (1.0 - between[cs]) * (1.0 - smoothstep(r[cs] / self._j_proximal[zj][cs]))
@@ -402,14 +410,20 @@ class JLDMap:
         }
 
     def _palm_setup(self, x: NDArray, seg: NDArray, bid: NDArray) -> None:
-        """Two-segment covering between neighbouring rays (metacarpal and proximal phalanx).
+        """Covering of the palm by neighbouring rays (metacarpals and proximal phalanges).
 
         The rays are the chains of bones hanging on the carpus (one per metacarpal), in
         order across the hand (by the x of the metacarpal's end). A free point of a
-        metacarpal or a proximal phalanx is also localised on the nearest such bone of
-        an adjacent ray; the virtual segment joins its two projections. Along a proximal
-        phalanx the blend fades out past the web (``_WEB`` of its length), where the
-        fingers part.
+        metacarpal or a proximal phalanx is mapped by every such bone near it: its own
+        and its neighbours', each single-segment mapping weighted by the inverse cube of
+        the point's distance to that bone's surface (normalised). For two bones the
+        weight of the neighbour is ``t^3 / (t^3 + (1 - t)^3)`` with ``t`` the point's
+        ratio on the virtual segment between the two bone surfaces: 0 on its own bone,
+        1/2 midway (the in-between area of Fig. 7), and the areas along each segment
+        (``t < palm_proximity``) are mapped by that segment alone. Every palm point uses
+        the same bones and formula, so the mapping is continuous across the palm. Along a
+        proximal phalanx the neighbours fade out past the web (``_WEB``), where the
+        fingers part. The nearest neighbour's virtual segment gives the scale factor F.
         """
         topo = self.topology
         nbones = len(topo.names)
@@ -420,54 +434,66 @@ class JLDMap:
         ]
         carpal.sort(key=lambda b: topo.end[b][0])  # radial to ulnar
         self.palm_bones = [topo.names[b] for b in carpal]
-        ray = np.full(nbones, -1, np.int64)
         depth = np.full(nbones, -1, np.int64)
+        ray = np.full(nbones, -1, np.int64)
         for k, b in enumerate(carpal):
             d, c = 0, b
             while c >= 0:
-                ray[c], depth[c] = k, d
+                depth[c], ray[c] = d, k
                 c, d = topo.child[c], d + 1
-        near = (ray >= 0) & (depth <= 1)
-        idx = np.flatnonzero(near[seg] & (bid < 0))
+        cand = np.flatnonzero((depth >= 0) & (depth <= 1))
+        idx = np.flatnonzero(np.isin(seg, cand) & (bid < 0))
+        self._pairs = None
+        self._extra = None
         if len(idx) == 0 or len(carpal) < 2:
-            self._palm = None
             return
         xp, sp = x[idx], seg[idx]
-        cand = np.flatnonzero(near)
-        dist = self._clamped_distance(xp, cand)
-        adjacent = np.abs(ray[cand][None, :] - ray[sp][:, None]) == 1
-        dist[~adjacent] = np.inf
-        nb = cand[np.argmin(dist, axis=1)]
-        ps = self._project(xp, sp)
-        pn = self._project(xp, nb)
-        v = pn - ps
-        t = ((xp - ps) * v).sum(-1) / np.maximum((v * v).sum(-1), _EPS)
-        # where the point lies between the two bone surfaces: 0 on its own, 1 on the other
-        d_own = self._surface_distance(xp, sp)
-        d_nb = self._surface_distance(xp, nb)
-        gap = d_own / np.maximum(d_own + d_nb, _EPS)
+        dist = np.stack([self._surface_distance(xp, np.full(len(idx), b)) for b in cand], 1)
+        own = cand[None, :] == sp[:, None]
         t0 = self.skeleton.spec.palm_proximity
-        w = 0.5 * smoothstep((gap - t0) / (0.5 - t0))
+        dist = np.maximum(dist, _EPS)
+        d_own = dist[own]
+        # the area along the own segment: neighbours act only beyond palm_proximity
+        tt = d_own[:, None] / (d_own[:, None] + dist)
+        infl = np.where(own, 1.0, smoothstep(tt / max(t0, _EPS)) * (tt / (1.0 - tt)) ** 3)
         r = self._main["ratio"][idx]
         fade = np.where(depth[sp] >= 1, 1.0 - smoothstep((r - _WEB[0]) / (_WEB[1] - _WEB[0])), 1.0)
-        w *= fade
-        keep = w > 0.0
-        idx, sp, nb, t, w = idx[keep], sp[keep], nb[keep], t[keep], w[keep]
-        ps, pn = ps[keep], pn[keep]
-        ov = x[idx] - (ps + t[:, None] * (pn - ps))
+        infl[~own] *= np.repeat(fade, len(cand) - 1)
+        infl[(ray[cand][None, :] == ray[sp][:, None]) & ~own] = 0.0  # the joints do that
+        w = infl / infl.sum(1, keepdims=True)
+        w[w < 1e-4] = 0.0
+        w /= w.sum(1, keepdims=True)
+        rows, cols = np.nonzero(w * ~own)
+        pidx = idx[rows]
+        pb = cand[cols]
+        self._pairs = {
+            "idx": pidx,
+            "w": w[rows, cols],
+            "loc": self._localise(x[pidx], pb),
+            "own_w": np.bincount(pidx, w[rows, cols], minlength=len(x)),
+        }
+        # the scale factor F of the nearest neighbour's virtual segment thickens the palm
+        other = np.where(own, -1.0, w)
+        top = np.argmax(other, axis=1)
+        has = other[np.arange(len(idx)), top] > 0.0
+        idx, sp, nb = idx[has], sp[has], cand[top[has]]
+        wn = w[has, top[has]]
+        if len(idx) == 0:
+            return
+        ps = self._project(x[idx], sp)
+        pn = self._project(x[idx], nb)
+        v = pn - ps
+        t = ((x[idx] - ps) * v).sum(-1) / np.maximum((v * v).sum(-1), _EPS)
+        ov = x[idx] - (ps + t[:, None] * v)
         ev = np.linalg.norm(ov, axis=1)
-        bones = list(self.skeleton.bones.values())
-        shaft = np.array([b.shaft.mean() for b in bones])
-        half = 0.5 * (shaft[sp] + shaft[nb])
-        beyond = np.clip(1.0 - half / np.maximum(ev, _EPS), 0.0, 1.0)
-        self._palm = {
+        beyond = np.clip(self._surface_distance(x[idx], sp) / np.maximum(ev, _EPS), 0.0, 1.0)
+        self._extra = {
             "idx": idx,
+            "own": sp,
             "neighbour": nb,
-            "w": w,
             "ps": ps,
             "pn": pn,
-            "bulge": (2.0 * w * beyond)[:, None] * ov,
-            "other": self._localise(x[idx], nb),
+            "bulge": (4.0 * wn * (1.0 - wn) * beyond)[:, None] * ov,
         }
 
     def _project(self, x: NDArray, seg: NDArray) -> NDArray:
@@ -493,50 +519,47 @@ class JLDMap:
             "fr": np.clip(flex / self._jmax, 0.0, 1.0),
         }
 
-    def _map_local(
-        self, x: NDArray, loc: dict[str, NDArray], pose: dict, extra: NDArray | None
-    ) -> NDArray:
+    def _map_local(self, x: NDArray, loc: dict[str, NDArray], pose: dict) -> NDArray:
         """Single-segment mapping of points ``x`` localised as ``loc``."""
         fr = pose["fr"]
         grow = loc["round_k"] * fr[np.maximum(loc["round_j"], 0)]
-        grow = grow + loc["musc_k"] * fr[np.maximum(loc["musc_j"], 0)]
+        grow += loc["musc_k"] * fr[np.maximum(loc["musc_j"], 0)]
         xt = x + grow[:, None] * loc["offset"]
-        if extra is not None:
-            xt = xt + extra
         zone = loc["zone"]
         zj = np.maximum(zone, 0)
         s = np.where(zone >= 0, loc["s"], 0.0)
-        rot = rotation_matrices(self._jpiv[zj], s * pose["piv"][zj]) @ rotation_matrices(
-            self._jflex[zj], s * pose["flex"][zj]
-        )
         c = self._jpos[zj]
-        local = c + np.einsum("nij,nj->ni", rot, xt - c)
+        v = _rotate(xt - c, self._jflex[zj], np.radians(s * pose["flex"][zj]))
+        v = _rotate(v, self._jpiv[zj], np.radians(s * pose["piv"][zj]))
+        local = c + v
         T = pose["T"][loc["base"]]
         return np.einsum("nij,nj->ni", T[:, :3, :3], local) + T[:, :3, 3]
 
     def _map(self, pose: dict) -> NDArray:
         x = self.points
-        out = self._map_local(x, self._main, pose, None)
-        palm = self._palm
-        if palm is not None:
-            idx = palm["idx"]
+        ex = self._extra
+        if ex is not None:
             T = pose["T"]
-            sp, nb = self._main["seg"][idx], palm["neighbour"]
-            vf = np.einsum("nij,nj->ni", T[nb, :3, :3], palm["pn"]) + T[nb, :3, 3]
-            vf -= np.einsum("nij,nj->ni", T[sp, :3, :3], palm["ps"]) + T[sp, :3, 3]
-            f = np.linalg.norm(palm["pn"] - palm["ps"], axis=1) / np.maximum(
+            sp, nb = ex["own"], ex["neighbour"]
+            vf = np.einsum("nij,nj->ni", T[nb, :3, :3], ex["pn"]) + T[nb, :3, 3]
+            vf -= np.einsum("nij,nj->ni", T[sp, :3, :3], ex["ps"]) + T[sp, :3, 3]
+            f = np.linalg.norm(ex["pn"] - ex["ps"], axis=1) / np.maximum(
                 np.linalg.norm(vf, axis=1), _EPS
             )
-            extra = (f**self.skeleton.spec.palm_bulge - 1.0)[:, None] * palm["bulge"]
-            sub = {k: v[idx] for k, v in self._main.items()}
-            mine = self._map_local(x[idx], sub, pose, extra)
-            other = self._map_local(x[idx], palm["other"], pose, extra)
-            w = palm["w"][:, None]
-            out[idx] = (1.0 - w) * mine + w * other
+            x = x.copy()
+            x[ex["idx"]] += (f**self.skeleton.spec.palm_bulge - 1.0)[:, None] * ex["bulge"]
+        out = self._map_local(x, self._main, pose)
+        pairs = self._pairs
+        if pairs is not None:
+            out *= (1.0 - pairs["own_w"])[:, None]
+            y = self._map_local(x[pairs["idx"]], pairs["loc"], pose) * pairs["w"][:, None]
+            for k in range(3):
+                out[:, k] += np.bincount(pairs["idx"], y[:, k], minlength=len(x))
         fixed = self.bone_id >= 0
         if fixed.any():
             T = pose["T"][self.bone_id[fixed]]
-            out[fixed] = np.einsum("nij,nj->ni", T[:, :3, :3], x[fixed]) + T[:, :3, 3]
+            xf = self.points[fixed]
+            out[fixed] = np.einsum("nij,nj->ni", T[:, :3, :3], xf) + T[:, :3, 3]
         return out
 
     def displacement(self, angles: Mapping[str, ArrayLike] | None = None) -> NDArray[np.float64]:

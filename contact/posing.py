@@ -1,0 +1,224 @@
+"""Posing the hand: bone transforms and the JLD-mapped flesh for given joint angles.
+
+This is step 1 of the grasp algorithm (DESIGN.md): the contact solver poses the hand, then
+builds the FE stiffness on the posed mesh and prescribes the bone nodes::
+
+    from contact import load_hand, pose_hand
+
+    hand = load_hand("coarse")
+    pose = pose_hand(hand, {"index_mcp": 30.0, "index_pip": 20.0})
+    pose.points          # (N, 3) posed flesh nodes (JLD mapping, bones rigid)
+    pose.transforms      # bone name -> 4x4 rest-to-posed transform
+    pose.mesh()          # fem.Mesh on the posed points (validated: positive volumes)
+
+:class:`HandPoser` localises the nodes once (a few tenths of a second) and then poses
+vectorised over nodes; :func:`pose_hand` keeps one poser per hand. A pose that inverts a
+tetrahedron raises :class:`~contact.errors.PoseError` naming the joint and the element
+(``check=False`` returns the pose with :attr:`Pose.inverted` filled instead).
+"""
+
+from __future__ import annotations
+
+import weakref
+from collections.abc import Mapping
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+import fem
+
+from .errors import PoseError
+from .hand import Hand
+from .jld import JLDMap
+from .skeleton import PIVOT_SUFFIX
+
+__all__ = ["HandPoser", "Pose", "pose_hand", "tet_quality", "tet_volumes"]
+
+
+def tet_volumes(points: ArrayLike, tets: ArrayLike) -> NDArray[np.float64]:
+    """Signed volumes of tetrahedra (positive for VTK's orientation), shape (M,)."""
+    x = np.asarray(points, dtype=np.float64)[np.asarray(tets)]
+    e = x[:, 1:] - x[:, :1]
+    return np.einsum("ij,ij->i", np.cross(e[:, 0], e[:, 1]), e[:, 2]) / 6.0
+
+
+def tet_quality(points: ArrayLike, tets: ArrayLike) -> NDArray[np.float64]:
+    """Shape quality ``6 sqrt(2) V / l_rms^3`` of tetrahedra, shape (M,).
+
+    1 for the regular tetrahedron, 0 for a flat one, negative for an inverted one
+    (``l_rms`` is the root mean square of the six edge lengths).
+    """
+    x = np.asarray(points, dtype=np.float64)[np.asarray(tets)]
+    e = x[:, [1, 2, 3, 2, 3, 3]] - x[:, [0, 0, 0, 1, 1, 2]]
+    lrms = np.sqrt((e * e).sum(-1).mean(-1))
+    v = np.einsum("ij,ij->i", np.cross(e[:, 0], e[:, 1]), e[:, 2]) / 6.0
+    return 6.0 * np.sqrt(2.0) * v / lrms**3
+
+
+@dataclass(frozen=True)
+class Pose:
+    """The hand in one pose.
+
+    Attributes
+    ----------
+    angles : dict of str to float
+        Every angle (degrees), omitted ones 0.
+    points : ndarray, shape (N, 3)
+        Posed flesh nodes.
+    displacement : ndarray, shape (N, 3)
+        ``points - rest``; exactly 0 at rest. Rows of bone nodes are their prescribed
+        displacements (``Uk`` of the seed).
+    transforms : dict of str to ndarray (4, 4)
+        Rest-to-posed rigid transform of every bone.
+    tets : ndarray, shape (M, 4)
+        The flesh tetrahedra (for :meth:`mesh` and the quality).
+    regions : ndarray, shape (M,)
+    inverted : ndarray of int
+        Tetrahedra with a non-positive volume (empty unless posed with ``check=False``).
+    """
+
+    angles: dict[str, float]
+    points: NDArray[np.float64]
+    displacement: NDArray[np.float64]
+    transforms: dict[str, NDArray[np.float64]]
+    tets: NDArray[np.int64]
+    regions: NDArray[np.int64]
+    inverted: NDArray[np.int64]
+
+    @cached_property
+    def quality(self) -> NDArray[np.float64]:
+        """Shape quality of every tetrahedron (see :func:`tet_quality`)."""
+        return tet_quality(self.points, self.tets)
+
+    @property
+    def min_quality(self) -> float:
+        """Worst tetrahedron quality of the pose."""
+        return float(self.quality.min())
+
+    def mesh(self) -> fem.Mesh:
+        """The posed flesh as a validated :class:`fem.Mesh` (raises on inverted cells)."""
+        return fem.Mesh(self.points, {"tetra": self.tets}, {"tetra": self.regions})
+
+
+class HandPoser:
+    """Poses one hand: JLD mapping of its flesh (and skin) localised once.
+
+    Parameters
+    ----------
+    hand : Hand
+        From :func:`contact.load_hand`.
+
+    Examples
+    --------
+    >>> poser = HandPoser(load_hand("coarse"))  # doctest: +SKIP
+    >>> pose = poser.pose({"index_mcp": 30.0})  # doctest: +SKIP
+    >>> skin = poser.skin_points({"index_mcp": 30.0})  # doctest: +SKIP
+    """
+
+    def __init__(self, hand: Hand) -> None:
+        self.hand = hand
+        self.flesh_map = JLDMap(hand.skeleton, hand.flesh.points, hand.bone_id)
+        self._tets = np.ascontiguousarray(hand.flesh.cells["tetra"])
+        self._regions = np.asarray(hand.flesh.regions["tetra"])
+
+    @cached_property
+    def skin_map(self) -> JLDMap:
+        """JLD mapping of the skin surface's vertices (``hand.skin``)."""
+        h = self.hand
+        return JLDMap(
+            h.skeleton,
+            np.asarray(h.skin.points),
+            reference=(h.flesh.points, h.bone_id),
+        )
+
+    def pose(self, angles: Mapping[str, float] | None = None, check: bool = True) -> Pose:
+        """Pose the flesh for joint angles.
+
+        Parameters
+        ----------
+        angles : mapping of str to float, optional
+            Degrees by angle name; omitted angles stay at 0 (rest).
+        check : bool
+            Raise :class:`PoseError` if a tetrahedron inverts; otherwise record them.
+
+        Returns
+        -------
+        Pose
+
+        Raises
+        ------
+        RigError
+            An unknown angle, or one outside its limits.
+        PoseError
+            With ``check``, naming the joint and the first inverted element.
+        """
+        sk = self.hand.skeleton
+        full = {k: float(v) for k, v in sk.check_angles(angles).items()}
+        disp = self.flesh_map.displacement(full)
+        points = self.hand.flesh.points + disp
+        tf = sk.forward_kinematics(full)
+        inverted = np.flatnonzero(tet_volumes(points, self._tets) <= 0.0)
+        if check and len(inverted):
+            raise self.inversion_error(full, inverted)
+        return Pose(full, points, disp, tf, self._tets, self._regions, inverted)
+
+    def skin_points(self, angles: Mapping[str, float] | None = None) -> NDArray[np.float64]:
+        """Posed vertices of the skin surface ``hand.skin``, shape (n_skin, 3)."""
+        return self.skin_map.map(angles)
+
+    def culprit(self, angles: Mapping[str, float], element: int) -> str:
+        """The joint blamed for an element: the most bent joint acting on its nodes."""
+        names = self.hand.skeleton.joint_names
+        zj = self.flesh_map.zone_joint[self._tets[element]]
+        cands = [names[j] for j in np.unique(zj[zj >= 0])]
+        # the joints of the nodes' segments and their ancestors, nearest first
+        if not cands:
+            cands = list(names)
+
+        def bend(j: str) -> float:
+            return abs(angles.get(j, 0.0)) + abs(angles.get(j + PIVOT_SUFFIX, 0.0))
+
+        return max(cands, key=bend)
+
+    def inversion_error(self, angles: Mapping[str, float], inverted: NDArray) -> PoseError:
+        """The :class:`PoseError` for a pose that inverts ``inverted`` elements."""
+        first = int(inverted[0])
+        joint = self.culprit(angles, first)
+        nodes = self._tets[first]
+        fixed = self.hand.bone_id[nodes]
+        names = self.hand.skeleton.bone_names
+        bones = sorted({names[b] for b in fixed if b >= 0})
+        how = (
+            f"all four nodes are fixed to bones ({', '.join(bones)}): the mesh cannot take "
+            "this rotation"
+            if (fixed >= 0).all()
+            else f"nodes {nodes.tolist()}"
+        )
+        bent = angles.get(joint, 0.0)
+        return PoseError(
+            f"pose inverts {len(inverted)} tetrahedra; the first, element {first} "
+            f"({how}), at joint {joint} (flexion {bent:g} deg)",
+            joint,
+            first,
+            tuple(int(i) for i in inverted),
+        )
+
+
+_POSERS: dict[int, tuple[weakref.ref, HandPoser]] = {}
+
+
+def pose_hand(hand: Hand, angles: Mapping[str, float] | None = None, check: bool = True) -> Pose:
+    """Pose a hand for joint angles (degrees); see :meth:`HandPoser.pose`.
+
+    The hand's :class:`HandPoser` is built on the first call and kept while the hand
+    lives, so posing frame after frame costs only the mapping.
+    """
+    entry = _POSERS.get(id(hand))
+    if entry is None or entry[0]() is not hand:
+        for key in [k for k, (ref, _) in _POSERS.items() if ref() is None]:
+            del _POSERS[key]
+        entry = (weakref.ref(hand), HandPoser(hand))
+        _POSERS[id(hand)] = entry
+    return entry[1].pose(angles, check=check)
