@@ -326,6 +326,17 @@ class JLDMap:
                 out[at] = np.maximum(d - self._shaft[b], 0.0)
         return out
 
+    def _assign_in(self, x: NDArray, allowed: NDArray) -> NDArray:
+        """Proximal assignment of points to one of the ``allowed`` bones (one ray)."""
+        topo = self.topology
+        seg = allowed[np.argmin(self._clamped_distance(x, allowed), axis=1)]
+        r = self._ratio(x, seg)
+        back = (r < 0.0) & topo.chained[seg] & np.isin(topo.parent[seg], allowed)
+        seg[back] = topo.parent[seg[back]]
+        fwd = ~back & (r >= 1.0) & np.isin(topo.child[seg], allowed)
+        seg[fwd] = topo.child[seg[fwd]]
+        return seg
+
     def _localise(self, x: NDArray, seg: NDArray) -> dict[str, NDArray]:
         """Segment, zone joint, weight and rounding/inflation coefficients of points."""
         topo = self.topology
@@ -448,35 +459,47 @@ class JLDMap:
         if len(idx) == 0 or len(carpal) < 2:
             return
         xp, sp = x[idx], seg[idx]
-        dist = np.stack([self._surface_distance(xp, np.full(len(idx), b)) for b in cand], 1)
-        own = cand[None, :] == sp[:, None]
-        t0 = self.skeleton.spec.palm_proximity
+        nray = len(carpal)
+        members = [np.flatnonzero((ray == k) & (depth >= 0) & (depth <= 1)) for k in range(nray)]
+        dist = np.stack(
+            [
+                np.min([self._surface_distance(xp, np.full(len(idx), b)) for b in mem], axis=0)
+                for mem in members
+            ],
+            1,
+        )
         dist = np.maximum(dist, _EPS)
+        own = np.arange(nray)[None, :] == ray[sp][:, None]
+        t0 = self.skeleton.spec.palm_proximity
         d_own = dist[own]
-        # the area along the own segment: neighbours act only beyond palm_proximity
+        # the area along the own ray: neighbours act only beyond palm_proximity
         tt = d_own[:, None] / (d_own[:, None] + dist)
         infl = np.where(own, 1.0, smoothstep(tt / max(t0, _EPS)) * (tt / (1.0 - tt)) ** 3)
         r = self._main["ratio"][idx]
         fade = np.where(depth[sp] >= 1, 1.0 - smoothstep((r - _WEB[0]) / (_WEB[1] - _WEB[0])), 1.0)
-        infl[~own] *= np.repeat(fade, len(cand) - 1)
-        infl[(ray[cand][None, :] == ray[sp][:, None]) & ~own] = 0.0  # the joints do that
+        infl[~own] *= np.repeat(fade, nray - 1)
         w = infl / infl.sum(1, keepdims=True)
         w[w < 1e-4] = 0.0
         w /= w.sum(1, keepdims=True)
         rows, cols = np.nonzero(w * ~own)
         pidx = idx[rows]
-        pb = cand[cols]
+        pb = np.empty(len(rows), np.int64)
+        for k in range(nray):
+            at = cols == k
+            pb[at] = self._assign_in(x[pidx[at]], members[k])
         self._pairs = {
             "idx": pidx,
             "w": w[rows, cols],
             "loc": self._localise(x[pidx], pb),
             "own_w": np.bincount(pidx, w[rows, cols], minlength=len(x)),
         }
+        nbone = np.full(w.shape, -1, np.int64)
+        nbone[rows, cols] = pb
         # the scale factor F of the nearest neighbour's virtual segment thickens the palm
         other = np.where(own, -1.0, w)
         top = np.argmax(other, axis=1)
         has = other[np.arange(len(idx)), top] > 0.0
-        idx, sp, nb = idx[has], sp[has], cand[top[has]]
+        idx, sp, nb = idx[has], sp[has], nbone[has, top[has]]
         wn = w[has, top[has]]
         if len(idx) == 0:
             return
