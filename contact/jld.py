@@ -18,29 +18,35 @@ Areas (section 5.1, Fig. 6)
 Coordinate bases (sections 4, 5.3, 5.4, Figs. 3, 8, 9, 10)
     The buffer moves rigidly with its bone (its normals are the segment's original ones).
     In the two areas at a joint the basis turns from the original normal of one segment
-    to the other's through the *modified normal*, the average of the initial and final
-    joint normals, reached on the joint plane: the point's basis is its parent bone's,
-    turned by the fraction ``s`` of the joint's rotation (flexion and pivot). ``s`` is 1/2
-    on the joint plane (the modified normal), 1 in the child's buffer and 0 in the
-    parent's. The interpolation weight combines the area ratio of Fig. 8 with the angle
-    ``psi`` of the point about the flexion axis, seen from the joint: the normal turns
-    uniformly with ``psi`` outside a cone of half-angle ``spread`` around each segment.
-    With the weight a function of ``psi`` (and of the distance from the axis) the local
-    Jacobian determinant is ``1 + theta ds/dpsi``, positive for any flexion below the
-    angle the normals turn over; interpolating by the ratio alone, as the seed does for a
-    surface, folds the palmar flesh of a deep flexion (its determinant is
-    ``1 - theta E ds/dL``, negative for thick flesh).
-    Joints whose parent bone carries several joints (the carpometacarpal joints on the
-    carpus) are one-sided: the child's proximal area turns from the parent's basis to its
-    own by the ratio alone (their angles are small).
+    to the other's through the *modified normal*: the point's basis is its parent bone's
+    turned by the fraction ``s`` of the joint's rotation (flexion and pivot), so the
+    normal is the initial one at ``s = 0``, the final one at ``s = 1`` and their average
+    (normalised) at ``s = 1/2``. The fraction follows the area ratio as in Fig. 8 (at the
+    end of the area ``s`` reaches the segment's own basis) combined with where the point
+    lies between the two bones: with ``dA`` and ``dB`` its distances to the surfaces of
+    the parent and child bones, ``b = sqrt(dA) / (sqrt(dA) + sqrt(dB))``; child side
+    ``s = 1 - (1 - b)(1 - g(R / prox_P))``, parent side ``s = b (1 - g((1 - R) / prox_D))``,
+    ``g`` a smoothstep. Both sides give the same ``s`` on the joint plane, so the mapping
+    is continuous there, and a point on a bone's surface gets exactly that bone's motion,
+    as the nodes fixed to it do. (The seed interpolates by the ratio alone and keeps the
+    segment as x-axis: a shear that folds the palmar flesh of a deep flexion and tears
+    the flesh from bones that are rigid right up to the joint; fine for a skin, not for a
+    tetrahedral volume.) A joint whose parent bone carries several joints (the
+    carpometacarpal joints on the carpus) has its parent-side area on that bone's end,
+    handed to the nearest child.
 Two-segment covering of the palm (sections 4 and 5.2, Figs. 5 and 7)
-    A palm point between two neighbouring metacarpals is also projected on the neighbour;
-    the *virtual segment* joins the two projections. Its ratio ``t`` splits it into an
-    area along each metacarpal (``t < palm_proximity``), mapped by that metacarpal alone,
-    and an in-between area where the two mappings blend, half and half at the middle, so
-    the bases interpolate from one metacarpal's to the other's (Fig. 5). The *scale
-    factor* ``F`` (virtual segment at rest over posed) thickens the palm between two
-    metacarpals that come closer: by ``F ** palm_bulge`` at the middle.
+    The rays are the chains of bones on the carpus (a metacarpal and its finger). A free
+    point of a metacarpal or a proximal phalanx is also localised on the neighbouring rays
+    (proximal assignment within each ray); the *virtual segment* joins its projections.
+    Its ratio ``t`` between the two bone surfaces splits it into an area along each
+    segment (``t < palm_proximity``), mapped by that segment alone, and an in-between
+    area where the rays' mappings blend, half and half at the middle (Fig. 5: the bases
+    interpolate from one segment's to the other's). The blend weights are inverse cubes
+    of the distances to the rays' bones, normalised: the same formula for every palm
+    point, so the mapping is continuous between rays. Along a proximal phalanx the
+    neighbours fade out past the web. The *scale factor* ``F`` (virtual segment at rest
+    over posed) thickens the palm between two rays that come closer, by ``F ** palm_bulge``
+    midway.
 Joint rounding and muscle inflation (section 6)
     With the flexion ratio ``FR = flexion / maximal flexion`` of a joint, dorsal points in
     its two areas move away from the segment axis by ``rounding * FR * (1 - R/prox)^2``

@@ -111,10 +111,6 @@ class JLDParams:
     """Join point of the two exponential functions: ratio of the largest inflation."""
     muscle_power: float = 2.0
     """Exponent ``b`` of the exponential functions (sharper peak when larger)."""
-    spread: float = 20.0
-    """Half-angle (degrees) of the cone around each segment's axis that moves rigidly
-    with it near the joint; the normals turn over the remaining angle."""
-
     def replace(self, **kw: float) -> JLDParams:
         """A copy with some fields changed."""
         from dataclasses import replace
@@ -320,7 +316,6 @@ _JLD_KEYS = {
     "muscle": (0.0, 0.5),
     "muscle_peak": (0.05, 0.95),
     "muscle_power": (0.5, 8.0),
-    "spread": (0.0, 60.0),
 }
 
 
