@@ -21,8 +21,9 @@ every platform), chosen after measuring libigl, fcpw, Open3D, embreex and VTK
   ``x`` is inside a closed, manifold surface that does not overlap itself.
 
 Both acceleration structures are built lazily on the first query and rebuilt for every new
-set of coordinates (:meth:`TriangleSurface.moved`); building is cheap next to a query
-(about 5 ms for 3k facets, 30 ms for 18k).
+set of coordinates (:meth:`TriangleSurface.moved`); building costs about as much as
+querying 2,000 points (a few ms for the coarse skin's 2.7k facets, 30-80 ms for the fine
+one's 18k).
 
 :func:`surface_of_mesh` turns a volume mesh's boundary into outward triangles numbered as
 the volume mesh's nodes, so that the weights of a closest point act on volume nodes.
