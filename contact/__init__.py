@@ -4,32 +4,55 @@ Built on :mod:`fem`; the modules arrive with the issues that follow the FE core.
 (issue 4): :func:`load_skeleton` reads a rig (``meshes/hand/rig.toml``) into a
 :class:`Skeleton` with forward kinematics, :func:`skin_surface` and :func:`bone_surfaces`
 build its skin (metaballs) and bones, and :func:`load_hand` reads the shipped meshes.
+Posing (issue 5): :class:`Keyframes` interpolate joint angles (Kochanek-Bartels),
+:func:`pose_hand` (or :class:`HandPoser`) maps the flesh by the JLD operators
+(:class:`JLDMap`) and gives the bone transforms, :func:`auto_flex` bends a joint until a
+point touches an object, :class:`ObjectAssociation` makes an object follow a joint and
+:func:`render_sequence` draws a sequence to PNG frames and a GIF.
 """
 
 from __future__ import annotations
 
+from .animation import render_sequence
+from .autoflex import AutoFlexResult, auto_flex
 from .ball import Ball, BallError, BallSpec, make_ball
 from .bones import bone_surfaces
-from .errors import RigError
+from .errors import PoseError, RigError
 from .hand import Hand, load_hand
+from .jld import JLDMap
+from .keyframes import Clamp, Key, Keyframes
 from .metaballs import skin_surface
+from .objects import ObjectAssociation
+from .posing import HandPoser, Pose, pose_hand
 from .skeleton import Skeleton, load_skeleton
 from .surfacequery import Closest, SurfaceError, TriangleSurface, surface_of_mesh
 
 __all__ = [
+    "AutoFlexResult",
     "Ball",
     "BallError",
     "BallSpec",
+    "Clamp",
     "Closest",
     "Hand",
+    "HandPoser",
+    "JLDMap",
+    "Key",
+    "Keyframes",
+    "ObjectAssociation",
+    "Pose",
+    "PoseError",
     "RigError",
     "Skeleton",
     "SurfaceError",
     "TriangleSurface",
+    "auto_flex",
     "bone_surfaces",
     "load_hand",
     "load_skeleton",
     "make_ball",
+    "pose_hand",
+    "render_sequence",
     "skin_surface",
     "surface_of_mesh",
 ]

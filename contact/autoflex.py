@@ -1,0 +1,263 @@
+"""Automatic flexion: bend one joint until a hand point touches an object (seed 001, §7).
+
+The seed's AUTO_F commands take a keyframe, a hand vertex, an object's facet and a joint,
+and find the flexion angle ``alpha`` with ``|DIST(alpha) - DIST| < epsilon`` by a
+dichotomous search instead of inverse kinematics. Only the contact point is mapped at each
+step (the JLD mapping of its segment). Here the object is any signed distance (negative
+inside); :func:`sphere_distance` and :func:`plane_distance` build the usual ones and
+:func:`surface_distance` wraps a closed surface.
+
+A scene can ask for a further press: ``target = -press`` finds the angle at which the point
+lies ``press`` inside the undeformed object; the contact iteration then resolves that
+interpenetration (the ball deforms, the flesh is pushed back).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .errors import RigError
+from .hand import Hand
+from .jld import JLDMap
+
+if TYPE_CHECKING:
+    import pyvista
+
+__all__ = [
+    "FINGERTIPS",
+    "AutoFlexResult",
+    "auto_flex",
+    "expected_halvings",
+    "fingertip_node",
+    "plane_distance",
+    "sphere_distance",
+    "surface_distance",
+]
+
+#: Named fingertips: the distal bone of each finger.
+FINGERTIPS = {
+    "thumb": "thumb_distal",
+    "index": "index_distal",
+    "middle": "middle_distal",
+    "ring": "ring_distal",
+    "little": "little_distal",
+}
+
+Distance = Callable[[NDArray[np.float64]], NDArray[np.float64]]
+
+
+def sphere_distance(center: ArrayLike, radius: float) -> Distance:
+    """Signed distance to a sphere (negative inside)."""
+    c = np.asarray(center, dtype=np.float64)
+
+    def dist(p: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.linalg.norm(np.atleast_2d(p) - c, axis=1) - radius
+
+    return dist
+
+
+def plane_distance(point: ArrayLike, normal: ArrayLike) -> Distance:
+    """Signed distance to a plane (negative behind the unit ``normal``)."""
+    q = np.asarray(point, dtype=np.float64)
+    n = np.asarray(normal, dtype=np.float64)
+    n = n / np.linalg.norm(n)
+
+    def dist(p: NDArray[np.float64]) -> NDArray[np.float64]:
+        return (np.atleast_2d(p) - q) @ n
+
+    return dist
+
+
+def surface_distance(surface: pyvista.PolyData) -> Distance:
+    """Signed distance to a closed, outward-oriented surface (negative inside)."""
+    import vtk
+
+    imp = vtk.vtkImplicitPolyDataDistance()
+    imp.SetInput(surface)
+
+    def dist(p: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.array([imp.EvaluateFunction(list(map(float, x))) for x in np.atleast_2d(p)])
+
+    return dist
+
+
+def fingertip_node(hand: Hand, finger: str) -> int:
+    """Flesh node at the tip of a named finger: the skin node farthest along its last bone.
+
+    Parameters
+    ----------
+    hand : Hand
+    finger : {"thumb", "index", "middle", "ring", "little"}
+
+    Returns
+    -------
+    int
+        A boundary node of the flesh mesh.
+    """
+    if finger not in FINGERTIPS:
+        raise RigError(f"unknown fingertip {finger!r}; expected one of {', '.join(FINGERTIPS)}")
+    bone = hand.skeleton.bones[FINGERTIPS[finger]]
+    nodes = hand.flesh.boundary.nodes
+    x = hand.flesh.points[nodes]
+    d = (bone.end - bone.start) / bone.length
+    near = np.linalg.norm(x - bone.end, axis=1) < 2.0 * bone.length
+    along = np.where(near, (x - bone.start) @ d, -np.inf)
+    return int(nodes[np.argmax(along)])
+
+
+def expected_halvings(lever: float, interval: float, epsilon: float) -> int:
+    """Halvings a dichotomous search needs at most: ``ceil(log2(lever * interval / eps))``.
+
+    The distance of a point at ``lever`` metres from the joint changes by at most
+    ``lever`` per radian, so once the bracket is narrower than ``epsilon / lever`` radians
+    the midpoint is within ``epsilon`` of the root.
+    """
+    return max(0, math.ceil(math.log2(lever * math.radians(interval) / epsilon)))
+
+
+@dataclass(frozen=True)
+class AutoFlexResult:
+    """The outcome of :func:`auto_flex`.
+
+    Attributes
+    ----------
+    joint : str
+        The angle searched (a flexion ``"index_pip"`` or pivot ``"..._pivot"``).
+    angle : float
+        Degrees found (the best bracket end when not converged).
+    distance : float
+        Signed distance of the point to the object at ``angle`` (m).
+    target : float
+        The distance sought (0, or ``-press``).
+    halvings : int
+        Bisection steps taken.
+    converged : bool
+        ``|distance - target| < epsilon``.
+    reason : str
+        Why it stopped.
+    angles : dict of str to float
+        The full pose with the found angle.
+    history : list of (float, float)
+        ``(angle, distance)`` of every evaluation.
+    """
+
+    joint: str
+    angle: float
+    distance: float
+    target: float
+    halvings: int
+    converged: bool
+    reason: str
+    angles: dict[str, float]
+    history: list[tuple[float, float]] = field(default_factory=list)
+
+
+def auto_flex(
+    hand: Hand,
+    point: int | str,
+    distance: Distance,
+    joint: str,
+    angles: Mapping[str, float] | None = None,
+    press: float = 0.0,
+    epsilon: float = 1e-5,
+    bracket: tuple[float, float] | None = None,
+    max_halvings: int = 60,
+) -> AutoFlexResult:
+    """Find the flexion of ``joint`` at which a hand point reaches an object.
+
+    Parameters
+    ----------
+    hand : Hand
+    point : int or str
+        A flesh node index, or a named fingertip (:data:`FINGERTIPS`).
+    distance : callable
+        Signed distance to the object's surface, ``(n, 3) -> (n,)``, negative inside.
+    joint : str
+        The angle to search (``"index_pip"``, ``"index_mcp"``, ``"wrist"``...).
+    angles : mapping of str to float, optional
+        The rest of the pose (a keyframe); the searched angle's value there is ignored.
+    press : float
+        Depth (m) to press past first contact: the target distance is ``-press``.
+    epsilon : float
+        Tolerance on the distance (m).
+    bracket : (float, float), optional
+        Angles (degrees) to search between; default the joint's whole range. The
+        distance minus the target must change sign between them.
+    max_halvings : int
+
+    Returns
+    -------
+    AutoFlexResult
+        ``converged`` False (with the reason) when the point cannot reach the target
+        within the bracket: the angle is then the bracket end nearest it.
+
+    Raises
+    ------
+    RigError
+        On an unknown joint angle or point name, or a bracket outside the limits.
+    """
+    sk = hand.skeleton
+    limits = sk.limits
+    if joint not in limits:
+        raise RigError(f"auto_flex: unknown joint angle {joint!r}")
+    node = fingertip_node(hand, point) if isinstance(point, str) else int(point)
+    if not 0 <= node < hand.flesh.n_points:
+        raise RigError(f"auto_flex: hand point {node} is not a flesh node")
+    lo, hi = bracket if bracket is not None else limits[joint]
+    if not limits[joint][0] <= lo < hi <= limits[joint][1]:
+        raise RigError(
+            f"auto_flex: bracket [{lo:g}, {hi:g}] of {joint} must lie within its limits "
+            f"[{limits[joint][0]:g}, {limits[joint][1]:g}] and increase"
+        )
+    base = {k: float(v) for k, v in (angles or {}).items()}
+    jld = JLDMap(
+        sk,
+        hand.flesh.points[[node]],
+        hand.bone_id[[node]],
+        reference=(hand.flesh.points, hand.bone_id),
+    )
+    target = -float(press)
+    history: list[tuple[float, float]] = []
+
+    def f(alpha: float) -> float:
+        pose = {**base, joint: alpha}
+        d = float(distance(jld.map(pose))[0])
+        history.append((alpha, d))
+        return d - target
+
+    def done(alpha: float, fa: float, n: int, ok: bool, why: str) -> AutoFlexResult:
+        return AutoFlexResult(
+            joint, alpha, fa + target, target, n, ok, why, {**base, joint: alpha}, history
+        )
+
+    f_lo, f_hi = f(lo), f(hi)
+    if abs(f_lo) < epsilon:
+        return done(lo, f_lo, 0, True, "within epsilon at the bracket's start")
+    if abs(f_hi) < epsilon:
+        return done(hi, f_hi, 0, True, "within epsilon at the bracket's end")
+    if f_lo * f_hi > 0.0:
+        end, fe = (lo, f_lo) if abs(f_lo) < abs(f_hi) else (hi, f_hi)
+        why = (
+            "the point does not reach the object within the bracket"
+            if f_lo > 0
+            else "the point is already past the target at both ends"
+        )
+        return done(end, fe, 0, False, why)
+    n = 0
+    while n < max_halvings:
+        mid = 0.5 * (lo + hi)
+        fm = f(mid)
+        n += 1
+        if abs(fm) < epsilon:
+            return done(mid, fm, n, True, "within epsilon")
+        if (fm > 0) == (f_lo > 0):
+            lo, f_lo = mid, fm
+        else:
+            hi = mid
+    return done(mid, fm, n, False, f"no convergence in {max_halvings} halvings")
