@@ -34,6 +34,10 @@ class ElasticBody:
     contact_faces : fem.BoundaryFaces, optional
         The faces that can touch (a hollow ball's outer sphere, a hand's skin); default:
         the whole boundary less the faces whose nodes are all prescribed (bone holes).
+    hold_rotation : bool, optional
+        A free body is placed by the contacts through its translations only, its
+        rotation held (see :class:`fem.StaticSolver`); default True for a free body:
+        frictionless contact cannot turn a ball.
     supports : mapping of str to array_like of int, optional
         Named groups of prescribed nodes (a hand's bones) whose reaction forces are
         reported; every node of a group must be prescribed in all three directions.
@@ -50,13 +54,16 @@ class ElasticBody:
         backend: str = "auto",
         contact_faces: fem.BoundaryFaces | None = None,
         supports: Mapping[str, ArrayLike] | None = None,
+        hold_rotation: bool = True,
     ) -> None:
         self.name = name
         self.mesh = mesh
         self.materials = materials
         self.stiffness = fem.assemble_stiffness(mesh, materials)
         pres = None if prescribed is None else np.asarray(prescribed, dtype=np.int64)
-        self.solver = fem.StaticSolver(self.stiffness, pres, points=mesh.points, backend=backend)
+        self.solver = fem.StaticSolver(
+            self.stiffness, pres, points=mesh.points, backend=backend, hold_rotation=hold_rotation
+        )
         n = mesh.n_dofs
         self.loads = np.zeros(n) if loads is None else np.asarray(loads, dtype=np.float64)
         if self.loads.shape != (n,):

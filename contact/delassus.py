@@ -129,8 +129,9 @@ class ContactSpace:
                 rhs -= eb @ self.own_response(body)
             if s.free_body:
                 free.append(body)
-                g_cols.append(eb @ s.modes if eb is not None else np.zeros((m, 6)))
-                balance.append(-(s.modes.T @ body.loads))
+                phi = s.placing_modes
+                g_cols.append(eb @ phi if eb is not None else np.zeros((m, phi.shape[1])))
+                balance.append(-(phi.T @ body.loads))
         g = np.hstack(g_cols) if g_cols else np.zeros((m, 0))
         c = np.concatenate(balance) if balance else np.zeros(0)
         lam, a = _saddle(w, g, rhs, c, [b.name for b in free])
@@ -141,8 +142,10 @@ class ContactSpace:
             forces = eb.T @ lam if eb is not None and m else np.zeros(body.mesh.n_dofs)
             rigid = np.zeros(0)
             if body.solver.free_body:
-                rigid = a[6 * k : 6 * k + 6]
-                k += 1
+                r = body.solver.placing_modes.shape[1]
+                rigid = np.zeros(6)
+                rigid[:r] = a[k : k + r]
+                k += r
             states[body.name] = self.state(body, forces, rigid)
         return lam, states
 

@@ -175,19 +175,46 @@ class _Frame:
         return self.settings.gap_tolerance * self.local[pair.slave.name][nodes]
 
     def new_rows(
-        self, rows: ContactRows, pens: list[Penetrations], touching: bool
+        self,
+        rows: ContactRows,
+        pens: list[Penetrations],
+        touching: bool,
+        released: NDArray[np.bool_] | None = None,
     ) -> tuple[ContactRows, int, float]:
-        """Rows with the penetrating nodes not yet in contact added; and the deepest one.
+        """The next contact set: rows released, penetrating nodes added, stale rows renewed.
 
-        ``touching`` also takes nodes within the tolerance outside (the first contact set).
+        Parameters
+        ----------
+        rows : ContactRows
+            The current set.
+        pens : list of Penetrations
+            Gaps measured at the current displacements, one per pair.
+        touching : bool
+            Also take nodes within the tolerance outside (the first contact set).
+        released : ndarray of bool, optional
+            Rows to drop (pulling); their nodes are not taken again in this update.
+
+        Returns
+        -------
+        rows : ContactRows
+        changed : int
+            Rows added or renewed: a node in contact that has slid off its facet so far that
+            it is inside the master again gets the row of its new closest point.
+        depth : float
+            Deepest penetration measured (m).
         """
-        added = 0
+        dropped = rows.select(released) if released is not None else ContactRows()
+        if released is not None:
+            rows = rows.select(~released)
+        changed = 0
         depth = 0.0
         for i, (pair, p) in enumerate(zip(self.pairs, pens, strict=True)):
             if not p.nodes.size:
                 continue
             tol = self.tol(pair, p.nodes)
-            fresh = ~np.isin(p.nodes, rows.node[rows.pair == i])
+            mine = rows.pair == i
+            active = np.isin(p.nodes, rows.node[mine])
+            fresh = ~active & ~np.isin(p.nodes, dropped.node[dropped.pair == i])
             depth = max(depth, float(np.max(-p.gap, initial=0.0)))
             hit = fresh & ((p.gap < tol) if touching else (p.gap < -tol))
             j = self.reverse[i]
@@ -197,10 +224,14 @@ class _Frame:
                 vertex = p.weights.max(axis=1) >= 1.0 - 1e-9
                 corner = p.facet[np.arange(p.nodes.size), p.weights.argmax(axis=1)]
                 hit &= ~(vertex & np.isin(corner, rows.node[rows.pair == j]))
+            stale = active & (p.gap < -tol) & (not pair.rigid)
+            if stale.any():
+                rows = rows.select(~(mine & np.isin(rows.node, p.nodes[stale])))
+                hit |= stale
             if hit.any():
                 rows = rows.extended(self.pairs, i, p.select(hit))
-                added += int(hit.sum())
-        return rows, added, depth
+                changed += int(hit.sum())
+        return rows, changed, depth
 
     def matrices(self, rows: ContactRows) -> dict:
         """Each body's part of the rows."""
@@ -314,7 +345,7 @@ def _record(
 
 
 def _key(rows: ContactRows) -> bytes:
-    k = rows.keys
+    k = np.column_stack([rows.keys, rows.facet])
     return k[np.lexsort(k.T[::-1])].tobytes() if len(k) else b""
 
 
@@ -389,7 +420,7 @@ def _contact_space(frame: _Frame) -> FrameResult:
         prev = flat
         scale = max(float(np.abs(lam).max()) if lam.size else 0.0, 1e-300)
         pulling = lam < -st.force_tolerance * scale
-        grown, added, depth = frame.new_rows(rows, frame.measure(u), touching=False)
+        grown, added, depth = frame.new_rows(rows, frame.measure(u), False, pulling)
         supports = [
             np.linalg.norm(f)
             for b in frame.bodies
@@ -420,7 +451,7 @@ def _contact_space(frame: _Frame) -> FrameResult:
         if not added and not pulling.any():
             converged, stop = True, "converged"
             break
-        rows = grown.select(np.concatenate([~pulling, np.ones(added, dtype=bool)]))
+        rows = grown
     return frame.result(
         converged=converged,
         stop=stop,
@@ -519,7 +550,7 @@ def _seed(frame: _Frame, dirichlet: str) -> FrameResult:
         u = {name: s.u.reshape(-1, 3) for name, s in states.items()}
         scale = max(float(np.abs(lam).max()) if lam.size else 0.0, 1e-300)
         pulling = lam < -st.force_tolerance * scale
-        grown, added, depth = frame.new_rows(rows, frame.measure(u), touching=False)
+        grown, added, depth = frame.new_rows(rows, frame.measure(u), False, pulling)
         supports = {b.name: b.support_forces(states[b.name].reactions) for b in frame.bodies}
         over = frame.over_limit(supports)
         support = max(
@@ -547,7 +578,7 @@ def _seed(frame: _Frame, dirichlet: str) -> FrameResult:
         if it > 1 and change <= st.tolerance * size and not added and not pulling.any():
             converged, stop = True, "converged"
             break
-        rows = grown.select(np.concatenate([~pulling, np.ones(added, dtype=bool)]))
+        rows = grown
     return frame.result(
         converged=converged,
         stop=stop,

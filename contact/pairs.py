@@ -142,7 +142,7 @@ def measure(pair: ContactPair, u: dict[str, NDArray[np.float64]], margin: float)
             np.zeros((k, 3)),
             np.broadcast_to(plane.normal, (k, 3)).copy(),
         )
-    from .surfacequery import TriangleSurface
+    from .surfacequery import DEGENERATE_TOL, WINDING_THRESHOLD, TriangleSurface
 
     master: ElasticBody = pair.master  # type: ignore[assignment]
     tri = master.contact_triangles
@@ -153,11 +153,23 @@ def measure(pair: ContactPair, u: dict[str, NDArray[np.float64]], margin: float)
     if not box.any():
         return Penetrations.empty()
     nodes, xs = nodes[box], xs[box]
+    # an iterate may crush a few facets far from this contact to zero area (a ball pinned
+    # on planes before it has moved): they hold no area and no solid angle, so the
+    # queries go on without them
+    x = xm[tri]
+    dbl = np.linalg.norm(np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), axis=1)
+    edge2 = np.max([((x[:, i] - x[:, (i + 1) % 3]) ** 2).sum(axis=1) for i in range(3)], axis=0)
+    keep = dbl > 10 * DEGENERATE_TOL * edge2
+    tri = tri if keep.all() else tri[keep]
     surface = TriangleSurface(xm, tri, name=f"{master.name} contact surface")
     c = surface.closest(xs)
-    # a closed contact surface (a ball, a skin) tells inside by its winding number, robust
-    # in concave places; an open one (a pad's top) by the side of the pseudo-normal
-    inside = surface.inside(xs) if master.contact_closed else c.side(xs) < 0
+    # a closed contact surface (a ball, a skin: checked at rest) tells inside by its
+    # winding number, robust in concave places; an open one (a pad's top) by the side of
+    # the pseudo-normal
+    if master.contact_closed:
+        inside = surface.winding_number(xs) > WINDING_THRESHOLD
+    else:
+        inside = c.side(xs) < 0
     gap = np.where(inside, -c.distance, c.distance)
     near = gap < margin
     return Penetrations(

@@ -21,7 +21,8 @@ class IterationRecord:
     n_contacts : int
         Constraints active in this iteration's solve.
     added, released : int
-        Contacts added (penetrating) and released (pulling) after it.
+        Contacts added (penetrating, or renewed after sliding off their facet) and
+        released (pulling) after it.
     max_change : float
         Largest change of a nodal displacement since the previous iteration (m).
     max_penetration : float

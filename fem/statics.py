@@ -135,6 +135,12 @@ class StaticSolver:
         Node coordinates, for the rigid-body modes of a free body.
     backend : str
         Linear solver name (see :func:`fem.factorize`).
+    hold_rotation : bool
+        Free body only: the extra constraints place it by its three translations, its
+        rotations are held at zero (and the moment the constraints and loads leave is
+        not resolved). Frictionless contact on a ball cannot turn it: its spin is held
+        only by discretisation effects, which a linear solve turns into large spurious
+        rotations.
 
     Examples
     --------
@@ -155,6 +161,7 @@ class StaticSolver:
         *,
         points: ArrayLike | None = None,
         backend: str = "auto",
+        hold_rotation: bool = False,
     ) -> None:
         k = sp.csr_matrix(stiffness, dtype=np.float64)
         n = k.shape[0]
@@ -180,6 +187,8 @@ class StaticSolver:
                     "its rigid-body modes can be removed"
                 )
             self.modes = rigid_body_modes(self.points)
+            # the first three columns span the translations (QR keeps leading spans)
+            self.placing_modes = self.modes[:, :3] if hold_rotation else self.modes
             # six DOFs spanning the rigid modes best: a statically determinate support
             _, _, piv = sla.qr(self.modes.T, mode="economic", pivoting=True)
             self._support = np.sort(piv[:6])
@@ -189,6 +198,7 @@ class StaticSolver:
             self._fact = factorize(k[self._inner][:, self._inner], backend)
         else:
             self.modes = np.zeros((n, 0))
+            self.placing_modes = self.modes
             k_free = k[self.free]
             self._k11 = k_free[:, self.free]
             self._k12 = k_free[:, pres]
@@ -284,7 +294,7 @@ class StaticSolver:
         idx = np.array([self._row_index[k] for k in keys], dtype=np.int64)
         s = self._gram[np.ix_(idx, idx)]
         s = 0.5 * (s + s.T)
-        e_phi = (e @ self.modes) if self.free_body else None
+        e_phi = (e @ self.placing_modes) if self.free_body else None
         return s, e_phi
 
     def _reset_rows(self) -> None:
@@ -358,9 +368,11 @@ class StaticSolver:
             x0 = self.apply_inverse(rf)
             rhs = ef @ x0 - g
             if self.free_body:
-                lam, a = _saddle(s, e_phi, rhs, self.modes.T @ f)
-                u[self.free] = self.apply_inverse(rf - ef.T @ lam) + self.modes @ a
-                rigid = a
+                phi = self.placing_modes
+                lam, a = _saddle(s, e_phi, rhs, phi.T @ f)
+                u[self.free] = self.apply_inverse(rf - ef.T @ lam) + phi @ a
+                rigid = np.zeros(6)
+                rigid[: a.size] = a
             else:
                 lam = _spd_solve(s, rhs)
                 u[self.free] = self.apply_inverse(rf - ef.T @ lam)
