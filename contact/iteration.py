@@ -277,6 +277,13 @@ class _Frame:
         u = {b.name: states[b.name].u.reshape(-1, 3) for b in self.bodies}
         pens = self.measure(u)
         depth = max((float(np.max(-p.gap, initial=0.0)) for p in pens), default=0.0)
+        ratio = max(
+            (
+                float(np.max(-p.gap / self.local[pair.slave.name][p.nodes], initial=0.0))
+                for pair, p in zip(self.pairs, pens, strict=True)
+            ),
+            default=0.0,
+        )
         over = self.over_limit(supports)
         if over and converged:
             converged = False
@@ -301,6 +308,7 @@ class _Frame:
                 "normal": rows.normal.copy(),
             },
             max_penetration=depth,
+            penetration_ratio=ratio,
             timings=dict(self.timings),
         )
 

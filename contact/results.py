@@ -129,6 +129,10 @@ class FrameResult:
         (normal force, N, positive pushes apart), ``normal`` ``(m, 3)``.
     max_penetration : float
         Deepest penetration of a slave node into its master at the end (m).
+    penetration_ratio : float
+        Largest penetration of a slave node over its local element size (the square
+        root of its tributary area); the solver keeps it under ``gap_tolerance`` when
+        it converges.
     timings : dict of str to float
         Seconds per phase.
     """
@@ -145,6 +149,7 @@ class FrameResult:
     over_limit: dict[str, tuple[float, float]]
     contacts: dict[str, NDArray]
     max_penetration: float
+    penetration_ratio: float = 0.0
     timings: dict[str, float] = field(default_factory=dict)
 
     def total_contact_force(self, body: str) -> NDArray[np.float64]:

@@ -75,6 +75,7 @@ def test_contact_space_converges_at_any_stiffness_ratio(ratio):
     assert (res.contacts["force"] >= 0).all()
     local = min(np.sqrt(b.node_areas[b.contact_nodes].min()) for b in bodies)
     assert res.max_penetration <= 1e-3 * local
+    assert res.penetration_ratio <= 1e-3
     # the pad's base carries the plate's force
     assert res.support_forces["pad"]["base"][2] == pytest.approx(
         res.obstacle_forces["plate"][2], rel=1e-9
