@@ -106,7 +106,12 @@ class Closest:
         return len(self.distance)
 
     def side(self, x: ArrayLike) -> NDArray[np.float64]:
-        """``(x - point) . normal``: the pseudo-normal signed distance, negative inside."""
+        """``(x - point) . normal`` of the query points ``x``: negative inside.
+
+        Its sign is the pseudo-normal inside test (exact on a closed, manifold surface that
+        does not overlap itself); its size is the distance only where the closest point
+        lies inside a facet.
+        """
         return np.einsum("ij,ij->i", np.asarray(x, np.float64) - self.point, self.normal)
 
 
