@@ -44,6 +44,7 @@ import fem
 from .errors import ContactError
 
 __all__ = [
+    "DEGENERATE_TOL",
     "WINDING_THRESHOLD",
     "Closest",
     "SurfaceError",
