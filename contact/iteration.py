@@ -29,7 +29,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -160,8 +160,15 @@ class _Frame:
         self.margin = max(
             float(self.local[b.name].max()) for b in self.bodies
         )  # broad-phase margin: one element
+        self.callback: Callable[[IterationRecord], None] | None = None
         self.extent = float(np.ptp(np.vstack([b.mesh.points for b in self.bodies]), axis=0).max())
         self.timings = {"geometry": 0.0, "contact solve": 0.0, "bodies": 0.0}
+
+    def record(self, history: list[IterationRecord], rec: IterationRecord) -> None:
+        """Append an iteration's record and tell the callback."""
+        history.append(rec)
+        if self.callback is not None:
+            self.callback(rec)
 
     def measure(self, u: dict[str, NDArray]) -> list[Penetrations]:
         """Gaps of every pair's candidates at displacements ``u``."""
@@ -364,6 +371,7 @@ def solve_frame(
     settings: ContactSettings | None = None,
     *,
     dirichlet: str | None = None,
+    callback: Callable[[IterationRecord], None] | None = None,
 ) -> FrameResult:
     """Resolve the contacts of one frame.
 
@@ -381,6 +389,8 @@ def solve_frame(
         Algorithm and tolerances.
     dirichlet : str, optional
         Seed loop: the body solved with its contacts prescribed (default the first).
+    callback : callable, optional
+        Called with each iteration's record as it is made (progress display).
 
     Returns
     -------
@@ -395,6 +405,7 @@ def solve_frame(
     """
     settings = settings or ContactSettings()
     frame = _Frame(bodies, planes, pairs, settings)
+    frame.callback = callback
     if settings.algorithm == "seed":
         return _seed(frame, dirichlet or frame.bodies[0].name)
     return _contact_space(frame)
@@ -434,7 +445,8 @@ def _contact_space(frame: _Frame) -> FrameResult:
             for b in frame.bodies
             for f in b.support_forces(states[b.name].reactions).values()
         ]
-        history.append(
+        frame.record(
+            history,
             _record(
                 it,
                 rows,
@@ -447,7 +459,7 @@ def _contact_space(frame: _Frame) -> FrameResult:
                 frame,
                 1.0,
                 float(max(supports, default=0.0)),
-            )
+            ),
         )
         log.debug(
             "contact space: iteration %d, %d contacts, +%d -%d",
@@ -553,7 +565,9 @@ def _seed(frame: _Frame, dirichlet: str) -> FrameResult:
             # a linear solution moving a node further than the scene is wide: the
             # Dirichlet-Neumann iteration diverges (the ball is the softer side)
             stop = "diverged"
-            history.append(_record(it, rows, 0, 0, change, np.nan, e, lam, frame, omega, 0.0))
+            frame.record(
+                history, _record(it, rows, 0, 0, change, np.nan, e, lam, frame, omega, 0.0)
+            )
             break
         u = {name: s.u.reshape(-1, 3) for name, s in states.items()}
         scale = max(float(np.abs(lam).max()) if lam.size else 0.0, 1e-300)
@@ -564,7 +578,8 @@ def _seed(frame: _Frame, dirichlet: str) -> FrameResult:
         support = max(
             (np.linalg.norm(f) for s in supports.values() for f in s.values()), default=0.0
         )
-        history.append(
+        frame.record(
+            history,
             _record(
                 it,
                 rows,
@@ -577,7 +592,7 @@ def _seed(frame: _Frame, dirichlet: str) -> FrameResult:
                 frame,
                 omega,
                 float(support),
-            )
+            ),
         )
         log.debug("seed: iteration %d, %d contacts, change %.3g", it, len(rows), change)
         if over:
