@@ -289,13 +289,10 @@ class JLDMap:
         """Ratio between the bone's proximal and distal planes (0 and 1 on them)."""
         sp = ((x - self._p_pt[seg]) * self._p_n[seg]).sum(-1)
         sd = ((x - self._d_pt[seg]) * self._d_n[seg]).sum(-1)
-        den = sp - sd
-        length = np.linalg.norm(self.topology.end[seg] - self.topology.start[seg], axis=-1)
-        ortho = sp / np.maximum(
-            ((self._d_pt[seg] - self._p_pt[seg]) * self._p_n[seg]).sum(-1), _EPS
-        )
-        ok = den > 0.2 * length
-        return np.where(ok, sp / np.where(ok, den, 1.0), ortho)
+        # far from the segment the two planes may converge: bound the denominator from
+        # below (continuously) by a fifth of the planes' distance along the axis
+        span = ((self._d_pt[seg] - self._p_pt[seg]) * self._p_n[seg]).sum(-1)
+        return sp / np.maximum(sp - sd, 0.2 * span)
 
     def _assign(self, x: NDArray, bid: NDArray) -> NDArray:
         """Proximal assignment: nearest axis, then across joint planes to the neighbour."""
@@ -381,11 +378,20 @@ class JLDMap:
         s = np.zeros(n)
         cs = child_side
         s[cs] = 1.0 - (1.0 - between[cs]) * (1.0 - smoothstep(r[cs] / self._j_proximal[zj][cs]))
+        # behind the plane of a child of several (a metacarpal's point on the carpus, as a
+        # neighbouring ray sees it): the parent side's formula, on the parent's ratio
+        back = cs & (r < 0.0) & ~self._jtwo[zj]
+        if back.any():
+            rp = self._ratio(x[back], self._jparent[zj[back]])
+            s[back] = between[back] * (1.0 - smoothstep((1.0 - rp) / self._j_distal[zj[back]]))
         ps = parent_side
         s[ps] = between[ps] * (1.0 - smoothstep((1.0 - r[ps]) / self._j_distal[zj][ps]))
         base = np.where(child_side, topo.parent[seg], seg)
         # rounding (dorsal, in the areas of two-sided joints) and muscle inflation (palmar)
         beyond = np.clip(self._surface_distance(x, seg) / np.maximum(thick, _EPS), 0.0, 1.0)
+        # at a joint: beyond the nearer of its two bones (the same on both sides)
+        near_bone = np.where(inz, np.minimum(d_par, d_chi), 0.0)
+        beyond_j = np.clip(near_bone / np.maximum(thick, _EPS), 0.0, 1.0)
         round_j = np.full(n, -1, np.int64)
         round_k = np.zeros(n)
         near_p = has_p & self._jtwo[np.maximum(pj, 0)]
@@ -400,7 +406,7 @@ class JLDMap:
         round_k[in_d] = (1.0 - np.clip(t_d[in_d], 0.0, 1.0)) ** 2
         rj = np.maximum(round_j, 0)
         cos_j = (off * self._jn[rj]).sum(-1) / np.maximum(thick, _EPS)
-        round_k *= self._j_rounding[rj] * np.clip(cos_j, 0.0, 1.0) * beyond
+        round_k *= self._j_rounding[rj] * np.clip(cos_j, 0.0, 1.0) * beyond_j
         round_k[round_j < 0] = 0.0
         musc_j = np.where(self._b_finger[seg], pj, -1)
         mj = np.maximum(musc_j, 0)
@@ -459,12 +465,17 @@ class JLDMap:
                 depth[c], ray[c] = d, k
                 c, d = topo.child[c], d + 1
         cand = np.flatnonzero((depth >= 0) & (depth <= 1))
-        idx = np.flatnonzero(np.isin(seg, cand) & (bid < 0))
+        # the hub's points in the areas of its joints (the carpus near the metacarpals)
+        zone = self._main["zone"]
+        hub_pt = np.isin(seg, self._hubs) & (zone >= 0)
+        hub_pt &= ~self._jtwo[np.maximum(zone, 0)] & (self._jparent[np.maximum(zone, 0)] == seg)
+        idx = np.flatnonzero((np.isin(seg, cand) | hub_pt) & (bid < 0))
         self._pairs = None
         self._extra = None
         if len(idx) == 0 or len(carpal) < 2:
             return
         xp, sp = x[idx], seg[idx]
+        hub = hub_pt[idx]
         nray = len(carpal)
         members = [np.flatnonzero((ray == k) & (depth >= 0) & (depth <= 1)) for k in range(nray)]
         dist = np.stack(
@@ -475,19 +486,22 @@ class JLDMap:
             1,
         )
         dist = np.maximum(dist, _EPS)
-        own = np.arange(nray)[None, :] == ray[sp][:, None]
+        own_ray = np.where(hub, np.argmin(dist, axis=1), ray[sp])
+        own = np.arange(nray)[None, :] == own_ray[:, None]
         t0 = self.skeleton.spec.palm_proximity
         d_own = dist[own]
         # the area along the own ray: neighbours act only beyond palm_proximity
         tt = d_own[:, None] / (d_own[:, None] + dist)
         infl = np.where(own, 1.0, smoothstep(tt / max(t0, _EPS)) * (tt / (1.0 - tt)) ** 3)
         r = self._main["ratio"][idx]
-        fade = np.where(depth[sp] >= 1, 1.0 - smoothstep((r - _WEB[0]) / (_WEB[1] - _WEB[0])), 1.0)
+        deep = (depth[sp] >= 1) & ~hub
+        fade = np.where(deep, 1.0 - smoothstep((r - _WEB[0]) / (_WEB[1] - _WEB[0])), 1.0)
         infl[~own] *= np.repeat(fade, nray - 1)
         w = infl / infl.sum(1, keepdims=True)
         w[w < 1e-4] = 0.0
         w /= w.sum(1, keepdims=True)
-        rows, cols = np.nonzero(w * ~own)
+        # a hub point is mapped by the rays only (its own ray too); others add neighbours
+        rows, cols = np.nonzero(w * (~own | hub[:, None]))
         pidx = idx[rows]
         pb = np.empty(len(rows), np.int64)
         for k in range(nray):
@@ -501,28 +515,50 @@ class JLDMap:
         }
         nbone = np.full(w.shape, -1, np.int64)
         nbone[rows, cols] = pb
+        prow = np.full(w.shape, -1, np.int64)
+        prow[rows, cols] = np.arange(len(rows))
+        ploc = self._pairs["loc"]
+        rr = np.arange(len(idx))
+        # the own segment's localisation: the main one, or for a hub point its own ray's
+        own_col = np.argmax(own, axis=1)
+        own_seg = np.where(hub, ploc["seg"][prow[rr, own_col]], sp)
+        own_off = np.where(
+            hub[:, None], ploc["offset"][prow[rr, own_col]], self._main["offset"][idx]
+        )
+        own_r = np.where(hub, ploc["ratio"][prow[rr, own_col]], self._main["ratio"][idx])
         # the scale factor F of the nearest neighbour's virtual segment thickens the palm
         other = np.where(own, -1.0, w)
-        top = np.argmax(other, axis=1)
-        has = other[np.arange(len(idx)), top] > 0.0
-        idx, sp, nb = idx[has], sp[has], nbone[has, top[has]]
-        wn = w[has, top[has]]
+        order = np.argsort(-other, axis=1)
+        top, second = order[:, 0], order[:, 1]
+        w_own, w_nb = w[own], other[rr, top]
+        d_rays = np.minimum(dist[own], dist[rr, top])
+        # 1 midway between two rays; 0 where the nearest neighbour changes (continuous)
+        low = np.minimum(w_own, w_nb)
+        lead = np.clip(low - np.maximum(other[rr, second], 0.0), 0.0, None) / np.maximum(low, _EPS)
+        lead *= 4.0 * w_own * w_nb / np.maximum((w_own + w_nb) ** 2, _EPS)
+        # none on the carpus: it fades in along the metacarpals' first fifth
+        lead *= np.where(depth[own_seg] == 0, smoothstep(own_r / 0.2), 1.0)
+        has = (w_nb > 0.0) & (lead > 0.0)
+        nb_row = prow[has, top[has]]
+        idx, sp, lead, d_rays = idx[has], own_seg[has], lead[has], d_rays[has]
         if len(idx) == 0:
             return
-        ps = self._project(x[idx], sp)
-        pn = self._project(x[idx], nb)
+        # the virtual segment joins the projections on the two segments (at their ratios)
+        ps = x[idx] - own_off[has]
+        pn = x[idx] - ploc["offset"][nb_row]
+        nb = ploc["seg"][nb_row]
         v = pn - ps
         t = ((x[idx] - ps) * v).sum(-1) / np.maximum((v * v).sum(-1), _EPS)
         ov = x[idx] - (ps + t[:, None] * v)
         ev = np.linalg.norm(ov, axis=1)
-        beyond = np.clip(self._surface_distance(x[idx], sp) / np.maximum(ev, _EPS), 0.0, 1.0)
+        beyond = np.clip(d_rays / np.maximum(ev, _EPS), 0.0, 1.0)
         self._extra = {
             "idx": idx,
             "own": sp,
             "neighbour": nb,
             "ps": ps,
             "pn": pn,
-            "bulge": (4.0 * wn * (1.0 - wn) * beyond)[:, None] * ov,
+            "bulge": (lead * beyond)[:, None] * ov,
         }
 
     def _project(self, x: NDArray, seg: NDArray) -> NDArray:
