@@ -85,6 +85,21 @@ class ElasticBody:
             groups[str(key)] = idx
         self.supports = groups
 
+    def translated(self, points: ArrayLike) -> ElasticBody:
+        """The same body moved rigidly by a translation to ``points``.
+
+        Stiffness and factorisation do not change under a translation: they are shared,
+        nothing is refactored.
+        """
+        x = np.asarray(points, dtype=np.float64)
+        d = x - self.mesh.points
+        if x.shape != self.mesh.points.shape or np.ptp(d, axis=0).max() > 1e-9 * self.size:
+            raise ValueError(f"{self.name}: translated() takes the points moved by one vector")
+        moved = object.__new__(ElasticBody)
+        moved.__dict__.update(self.__dict__)
+        moved.mesh = fem.Mesh(x, self.mesh.cells, self.mesh.regions)
+        return moved
+
     @property
     def free(self) -> bool:
         """True when nothing but contacts holds the body."""
