@@ -147,8 +147,9 @@ def moment_radius(r: ArrayLike, f: ArrayLike) -> float:
     """Contact radius from the second moment of a Hertzian load: ``sqrt(5/2 sum f r^2 / sum f)``.
 
     ``r`` are the distances of the loaded points from the load axis, ``f`` their normal
-    forces (or ``r^2`` corrected for the interpolation excess, given as ``r`` squared
-    through :func:`measure_contact_patch`).
+    forces. Exact for ``p = p0 sqrt(1 - r^2 / a^2)``, whose ``int p r^2 dA / int p dA`` is
+    ``2 a^2 / 5``; nodal forces of an FE traction need the correction of
+    :func:`interpolation_excess`, which :func:`measure_contact_patch` applies.
     """
     r = np.asarray(r, dtype=np.float64)
     f = np.asarray(f, dtype=np.float64)

@@ -439,6 +439,11 @@ def graded_ball_mesh(
     nz = max(1, math.ceil(arc / coarse - 1e-9))
     t_z = np.linspace(-1.0, 1.0, 2 * nz + 1)
     depth = radius - a * (1 - 0.5 + 0.5 * math.sqrt(2.0))  # core face to sphere at a pole
+    if fine_radius > 0.9 * depth:
+        raise MeshError(
+            f"fine_radius = {fine_radius!r} must stay within 0.9 of the {depth:.6g} from the "
+            "core to the sphere at a pole: take a smaller core"
+        )
     s = 1.0 - graded_spacing(fine_size / depth, fine_radius / depth, coarse / depth, growth)
     s = s[::-1]
     grids = (t_xy, t_xy, t_z)
