@@ -169,18 +169,31 @@ class HandPoser:
         return self.skin_map.map(angles)
 
     def culprit(self, angles: Mapping[str, float], element: int) -> str:
-        """The joint blamed for an element: the most bent joint acting on its nodes."""
-        names = self.hand.skeleton.joint_names
-        zj = self.flesh_map.zone_joint[self._tets[element]]
-        cands = [names[j] for j in np.unique(zj[zj >= 0])]
-        # the joints of the nodes' segments and their ancestors, nearest first
-        if not cands:
-            cands = list(names)
+        """The joint blamed for an inverted element.
 
-        def bend(j: str) -> float:
-            return abs(angles.get(j, 0.0)) + abs(angles.get(j + PIVOT_SUFFIX, 0.0))
-
-        return max(cands, key=bend)
+        Each bent joint in turn is put back to rest (flexion and pivot) and the element's
+        four nodes re-mapped; the joint whose return gives the element the largest volume
+        is the culprit (ties go to the most bent).
+        """
+        h = self.hand
+        nodes = self._tets[element]
+        m = JLDMap(h.skeleton, h.flesh.points[nodes], h.bone_id[nodes], (h.flesh.points, h.bone_id))
+        bent = {
+            j: abs(angles.get(j, 0.0)) + abs(angles.get(j + PIVOT_SUFFIX, 0.0))
+            for j in h.skeleton.joint_names
+        }
+        best, best_key = h.skeleton.joint_names[0], (-np.inf, -np.inf)
+        for j, b in bent.items():
+            if b == 0.0:
+                continue
+            trial = dict(angles)
+            trial[j] = 0.0
+            if j + PIVOT_SUFFIX in trial:
+                trial[j + PIVOT_SUFFIX] = 0.0
+            v = tet_volumes(m.map(trial), np.arange(4)[None])[0]
+            if (v, b) > best_key:
+                best, best_key = j, (v, b)
+        return best
 
     def inversion_error(self, angles: Mapping[str, float], inverted: NDArray) -> PoseError:
         """The :class:`PoseError` for a pose that inverts ``inverted`` elements."""
