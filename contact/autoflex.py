@@ -88,7 +88,9 @@ def surface_distance(surface: pyvista.PolyData) -> Distance:
 
 
 def fingertip_node(hand: Hand, finger: str) -> int:
-    """Flesh node at the tip of a named finger: the skin node farthest along its last bone.
+    """Flesh node at the tip of a named finger.
+
+    The boundary node farthest along the finger's last bone, among those nearest its axis.
 
     Parameters
     ----------
@@ -102,17 +104,24 @@ def fingertip_node(hand: Hand, finger: str) -> int:
     """
     if finger not in FINGERTIPS:
         raise RigError(f"unknown fingertip {finger!r}; expected one of {', '.join(FINGERTIPS)}")
-    bone = hand.skeleton.bones[FINGERTIPS[finger]]
+    sk = hand.skeleton
+    bone = sk.bones[FINGERTIPS[finger]]
     nodes = hand.flesh.boundary.nodes
     x = hand.flesh.points[nodes]
+    a = np.stack([b.start for b in sk.bones.values()])
+    ab = np.stack([b.end for b in sk.bones.values()]) - a
+    t = np.clip(np.einsum("nbk,bk->nb", x[:, None] - a, ab) / (ab * ab).sum(1), 0.0, 1.0)
+    nearest = np.argmin(np.linalg.norm(x[:, None] - (a + t[..., None] * ab), axis=2), axis=1)
+    mine = nearest == sk.bone_names.index(bone.name)
     d = (bone.end - bone.start) / bone.length
-    near = np.linalg.norm(x - bone.end, axis=1) < 2.0 * bone.length
-    along = np.where(near, (x - bone.start) @ d, -np.inf)
+    along = np.where(mine, (x - bone.start) @ d, -np.inf)
     return int(nodes[np.argmax(along)])
 
 
 def expected_halvings(lever: float, interval: float, epsilon: float) -> int:
     """Halvings a dichotomous search needs at most: ``ceil(log2(lever * interval / eps))``.
+
+    ``interval`` is the bracket halved, in degrees (the scan's step in :func:`auto_flex`).
 
     The distance of a point at ``lever`` metres from the joint changes by at most
     ``lever`` per radian, so once the bracket is narrower than ``epsilon / lever`` radians
@@ -136,7 +145,7 @@ class AutoFlexResult:
     target : float
         The distance sought (0, or ``-press``).
     halvings : int
-        Bisection steps taken.
+        Bisection steps taken (after the scan).
     converged : bool
         ``|distance - target| < epsilon``.
     reason : str
@@ -167,6 +176,7 @@ def auto_flex(
     press: float = 0.0,
     epsilon: float = 1e-5,
     bracket: tuple[float, float] | None = None,
+    scan: int = 16,
     max_halvings: int = 60,
 ) -> AutoFlexResult:
     """Find the flexion of ``joint`` at which a hand point reaches an object.
@@ -187,8 +197,12 @@ def auto_flex(
     epsilon : float
         Tolerance on the distance (m).
     bracket : (float, float), optional
-        Angles (degrees) to search between; default the joint's whole range. The
-        distance minus the target must change sign between them.
+        Angles (degrees) to search from and to; default from the angle in ``angles``
+        (0 if absent) to the joint's upper limit. The search moves from the first end.
+    scan : int
+        The bracket is first walked in ``scan`` equal steps to the first one past the
+        target (the first contact, not a later exit from the object); that step is then
+        halved until the distance is within ``epsilon``.
     max_halvings : int
 
     Returns
@@ -209,7 +223,8 @@ def auto_flex(
     node = fingertip_node(hand, point) if isinstance(point, str) else int(point)
     if not 0 <= node < hand.flesh.n_points:
         raise RigError(f"auto_flex: hand point {node} is not a flesh node")
-    lo, hi = bracket if bracket is not None else limits[joint]
+    start = float((angles or {}).get(joint, 0.0))
+    lo, hi = bracket if bracket is not None else (start, limits[joint][1])
     if not limits[joint][0] <= lo < hi <= limits[joint][1]:
         raise RigError(
             f"auto_flex: bracket [{lo:g}, {hi:g}] of {joint} must lie within its limits "
@@ -236,19 +251,23 @@ def auto_flex(
             joint, alpha, fa + target, target, n, ok, why, {**base, joint: alpha}, history
         )
 
-    f_lo, f_hi = f(lo), f(hi)
+    # march from the bracket's start to the first sign change (first contact), then halve
+    grid = np.linspace(lo, hi, scan + 1)
+    f_lo = f(lo)
     if abs(f_lo) < epsilon:
         return done(lo, f_lo, 0, True, "within epsilon at the bracket's start")
-    if abs(f_hi) < epsilon:
-        return done(hi, f_hi, 0, True, "within epsilon at the bracket's end")
-    if f_lo * f_hi > 0.0:
-        end, fe = (lo, f_lo) if abs(f_lo) < abs(f_hi) else (hi, f_hi)
-        why = (
-            "the point does not reach the object within the bracket"
-            if f_lo > 0
-            else "the point is already past the target at both ends"
-        )
-        return done(end, fe, 0, False, why)
+    if f_lo < 0.0:
+        return done(lo, f_lo, 0, False, "the point is already past the target at the start")
+    for a in grid[1:]:
+        fa = f(float(a))
+        if abs(fa) < epsilon:
+            return done(float(a), fa, 0, True, "within epsilon on the scan")
+        if fa < 0.0:
+            hi = float(a)
+            break
+        lo, f_lo = float(a), fa
+    else:
+        return done(lo, f_lo, 0, False, "the point does not reach the object within the bracket")
     n = 0
     while n < max_halvings:
         mid = 0.5 * (lo + hi)
@@ -256,7 +275,7 @@ def auto_flex(
         n += 1
         if abs(fm) < epsilon:
             return done(mid, fm, n, True, "within epsilon")
-        if (fm > 0) == (f_lo > 0):
+        if fm > 0:
             lo, f_lo = mid, fm
         else:
             hi = mid

@@ -1,0 +1,86 @@
+"""Automatic flexion: the dichotomous search of seed 001 (AUTO_F commands)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from contact.autoflex import (
+    auto_flex,
+    expected_halvings,
+    fingertip_node,
+    plane_distance,
+    sphere_distance,
+)
+from contact.errors import RigError
+from contact.hand import load_hand
+from contact.posing import pose_hand
+
+R = 0.02  # sphere radius (m)
+
+
+@pytest.fixture(scope="module")
+def hand():
+    return load_hand("coarse")
+
+
+@pytest.fixture(scope="module")
+def ball(hand):
+    """A sphere the index fingertip meets at index_mcp = 25 deg (other joints bent too)."""
+    base = {"index_pip": 20.0, "index_dip": 10.0, "wrist": 5.0}
+    tip = fingertip_node(hand, "index")
+    p = [pose_hand(hand, {**base, "index_mcp": a}, check=False).points[tip] for a in (25.0, 25.1)]
+    ahead = (p[1] - p[0]) / np.linalg.norm(p[1] - p[0])
+    return base, tip, p[0] + R * ahead
+
+
+def test_fingertips_lie_at_the_end_of_their_finger(hand):
+    for finger in ("thumb", "index", "middle", "ring", "little"):
+        bone = hand.skeleton.bones[f"{finger}_distal"]
+        x = hand.flesh.points[fingertip_node(hand, finger)]
+        assert np.linalg.norm(x - bone.end) < 0.012, finger
+        assert (x - bone.start) @ (bone.end - bone.start) > bone.length**2
+    with pytest.raises(RigError, match="unknown fingertip 'toe'"):
+        fingertip_node(hand, "toe")
+
+
+def test_dichotomous_search_meets_epsilon_within_the_expected_halvings(hand, ball):
+    base, tip, centre = ball
+    eps = 1e-5
+    res = auto_flex(hand, "index", sphere_distance(centre, R), "index_mcp", base, epsilon=eps)
+    assert res.converged and res.reason == "within epsilon"
+    assert abs(res.distance) < eps
+    assert res.angle == pytest.approx(25.0, abs=0.05)
+    lever = np.linalg.norm(hand.flesh.points[tip] - hand.skeleton.joints["index_mcp"].position)
+    bound = expected_halvings(lever, 90.0 / 16, eps)  # one scan step of 0..90 deg
+    print(f"{res.halvings} halvings (bound {bound}) to {res.distance * 1e6:.2f} um")
+    assert 1 <= res.halvings <= bound
+    scanned = len(res.history) - res.halvings
+    assert 2 <= scanned <= 17
+    assert [d > 0 for _, d in res.history[: scanned - 1]] == [True] * (scanned - 1)
+    # the pose it returns puts the node where the search saw it
+    posed = pose_hand(hand, res.angles, check=False).points[tip]
+    assert np.linalg.norm(posed - centre) - R == pytest.approx(res.distance, abs=1e-12)
+    # with the vertex number instead of the name
+    by_node = auto_flex(hand, tip, sphere_distance(centre, R), "index_mcp", base, epsilon=eps)
+    assert by_node.angle == res.angle
+
+
+def test_press_depth_bends_further(hand, ball):
+    base, _, centre = ball
+    touch = auto_flex(hand, "index", sphere_distance(centre, R), "index_mcp", base)
+    press = auto_flex(hand, "index", sphere_distance(centre, R), "index_mcp", base, press=0.003)
+    assert press.converged and press.target == -0.003
+    assert press.distance == pytest.approx(-0.003, abs=1e-5)
+    assert press.angle > touch.angle + 1.0
+
+
+def test_no_contact_in_the_bracket_is_reported_not_raised(hand):
+    far = plane_distance([0.0, 0.0, -0.5], [0.0, 0.0, 1.0])  # half a metre below the palm
+    res = auto_flex(hand, "middle", far, "middle_pip", bracket=(0.0, 60.0))
+    assert not res.converged and "does not reach" in res.reason
+    assert res.halvings == 0 and res.distance > 0.4
+    with pytest.raises(RigError, match="unknown joint angle 'middle_pap'"):
+        auto_flex(hand, "middle", far, "middle_pap")
+    with pytest.raises(RigError, match=r"bracket \[0, 200\] of middle_pip"):
+        auto_flex(hand, "middle", far, "middle_pip", bracket=(0.0, 200.0))
