@@ -9,6 +9,8 @@ Posing (issue 5): :class:`Keyframes` interpolate joint angles (Kochanek-Bartels)
 (:class:`JLDMap`) and gives the bone transforms, :func:`auto_flex` bends a joint until a
 point touches an object, :class:`ObjectAssociation` makes an object follow a joint and
 :func:`render_sequence` draws a sequence to PNG frames and a GIF.
+Outputs (issue 8): :class:`ResultsWriter` writes a results folder (summary, VTU/PVD
+series, pictures) of :class:`BodyFrame` bodies with each frame's :func:`verdict`.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from .jld import JLDMap
 from .keyframes import Clamp, Key, Keyframes
 from .metaballs import skin_surface
 from .objects import ObjectAssociation
+from .output import BodyFrame, ResultsWriter, verdict
 from .posing import HandPoser, Pose, pose_hand
 from .skeleton import Skeleton, load_skeleton
 from .surfacequery import Closest, SurfaceError, TriangleSurface, surface_of_mesh
@@ -32,6 +35,7 @@ __all__ = [
     "Ball",
     "BallError",
     "BallSpec",
+    "BodyFrame",
     "Clamp",
     "Closest",
     "Hand",
@@ -42,6 +46,7 @@ __all__ = [
     "ObjectAssociation",
     "Pose",
     "PoseError",
+    "ResultsWriter",
     "RigError",
     "Skeleton",
     "SurfaceError",
@@ -55,4 +60,5 @@ __all__ = [
     "render_sequence",
     "skin_surface",
     "surface_of_mesh",
+    "verdict",
 ]
