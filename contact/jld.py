@@ -520,12 +520,13 @@ class JLDMap:
         ploc = self._pairs["loc"]
         rr = np.arange(len(idx))
         # the own segment's localisation: the main one, or for a hub point its own ray's
+        if len(rows) == 0:
+            return
         own_col = np.argmax(own, axis=1)
-        own_seg = np.where(hub, ploc["seg"][prow[rr, own_col]], sp)
-        own_off = np.where(
-            hub[:, None], ploc["offset"][prow[rr, own_col]], self._main["offset"][idx]
-        )
-        own_r = np.where(hub, ploc["ratio"][prow[rr, own_col]], self._main["ratio"][idx])
+        pr = np.maximum(prow[rr, own_col], 0)  # a pair only for hub points (where used)
+        own_seg = np.where(hub, ploc["seg"][pr], sp)
+        own_off = np.where(hub[:, None], ploc["offset"][pr], self._main["offset"][idx])
+        own_r = np.where(hub, ploc["ratio"][pr], self._main["ratio"][idx])
         # the scale factor F of the nearest neighbour's virtual segment thickens the palm
         other = np.where(own, -1.0, w)
         order = np.argsort(-other, axis=1)

@@ -187,3 +187,28 @@ def test_rounding_and_inflation_grow_with_flexion(hand, key, side):
     assert np.all(np.diff(growth) > 0), growth
     # linear in the flexion ratio: 60 deg gives three times 20 deg (to the rotation's effect)
     assert growth[3] / growth[1] == pytest.approx(3.0, rel=0.15)
+
+
+def test_rig_jld_section_defaults_overrides_and_errors(tmp_path):
+    from contact.errors import RigError
+    from contact.hand import HAND_DIR
+    from contact.rigspec import JLD_DEFAULTS, read_rig
+
+    text = (HAND_DIR / "rig.toml").read_text()
+    spec = read_rig(HAND_DIR / "rig.toml")
+    assert spec.jld_params("thumb_cmc").muscle_peak == 0.4
+    assert spec.jld_params("index_pip") == JLD_DEFAULTS
+    start = text.index("\n[jld]\n")
+    end = text.index("# ----", start)
+    old = tmp_path / "rig.toml"
+    old.write_text(text[:start] + text[end:])  # a rig from before the [jld] section
+    assert read_rig(old).jld_params("thumb_cmc") == JLD_DEFAULTS
+    bad = text.replace("[jld.joints.thumb_cmc]", "[jld.joints.thumb_cmc]\nproximal = 0.7")
+    (tmp_path / "bad.toml").write_text(bad)
+    with pytest.raises(RigError, match=r"jld.joints.thumb_cmc.proximal = 0.7: must lie in"):
+        read_rig(tmp_path / "bad.toml")
+    (tmp_path / "bad2.toml").write_text(
+        text.replace("[jld.joints.thumb_cmc]", "[jld.joints.thumb_xyz]")
+    )
+    with pytest.raises(RigError, match=r"jld.joints.thumb_xyz"):
+        read_rig(tmp_path / "bad2.toml")
