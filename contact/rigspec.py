@@ -111,6 +111,7 @@ class JLDParams:
     """Join point of the two exponential functions: ratio of the largest inflation."""
     muscle_power: float = 2.0
     """Exponent ``b`` of the exponential functions (sharper peak when larger)."""
+
     def replace(self, **kw: float) -> JLDParams:
         """A copy with some fields changed."""
         from dataclasses import replace
