@@ -27,6 +27,7 @@ from .metaballs import skin_surface
 from .objects import ObjectAssociation
 from .output import BodyFrame, ResultsWriter, verdict
 from .posing import HandPoser, Pose, pose_hand
+from .scene import Scene, SceneError, load_scene
 from .skeleton import Skeleton, load_skeleton
 from .surfacequery import Closest, SurfaceError, TriangleSurface, surface_of_mesh
 
@@ -48,12 +49,15 @@ __all__ = [
     "PoseError",
     "ResultsWriter",
     "RigError",
+    "Scene",
+    "SceneError",
     "Skeleton",
     "SurfaceError",
     "TriangleSurface",
     "auto_flex",
     "bone_surfaces",
     "load_hand",
+    "load_scene",
     "load_skeleton",
     "make_ball",
     "pose_hand",

@@ -362,6 +362,15 @@ def _short(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
+def _hint(key: str, options: Iterable[str]) -> str:
+    """``"; did you mean 'x'?"`` for the closest option (difflib, else a unique prefix)."""
+    options = list(options)
+    close = difflib.get_close_matches(key, options, n=1)
+    if not close:
+        close = [o for o in options if o.startswith(key) or key.startswith(o)][:1]
+    return f"; did you mean {close[0]!r}?" if close else ""
+
+
 def _join(path: str, key: str) -> str:
     return f"{path}.{key}" if path else key
 
@@ -387,8 +396,7 @@ class _Reader:
             raise self.fail(path, data, "must be a table")
         for key in data:
             if key not in allowed:
-                close = difflib.get_close_matches(key, sorted(allowed), n=1)
-                hint = f"; did you mean {close[0]!r}?" if close else ""
+                hint = _hint(key, sorted(allowed))
                 raise SceneError(
                     f"{self.source}: {_join(path, key)}: unknown key{hint} "
                     f"(allowed: {', '.join(sorted(allowed))})"
@@ -571,8 +579,7 @@ def _read_hand(r: _Reader, data: dict, base: Path) -> tuple[HandScene, Skeleton]
     for bone, v in per_bone.items():
         where = f"hand.bone_force_limits.{bone}"
         if bone not in skeleton.bones:
-            close = difflib.get_close_matches(bone, skeleton.bone_names, n=1)
-            hint = f"; did you mean {close[0]!r}?" if close else ""
+            hint = _hint(bone, skeleton.bone_names)
             raise r.fail(where, v, f"unknown bone{hint} (bones: {', '.join(skeleton.bone_names)})")
         limits[bone] = r.number(v, where, positive=True)
     keys = _read_keyframes(r, h["keyframe"], skeleton)
@@ -613,8 +620,7 @@ def _read_keyframes(r: _Reader, value: Any, skeleton: Skeleton) -> tuple[dict, .
         for name, v in angles.items():
             path = f"{where}.angles.{name}"
             if name not in limits:
-                close = difflib.get_close_matches(name, list(limits), n=1)
-                hint = f"; did you mean {close[0]!r}?" if close else ""
+                hint = _hint(name, list(limits))
                 raise r.fail(path, v, f"unknown joint angle{hint} (angles: {', '.join(limits)})")
             x = r.number(v, path)
             lo, hi = limits[name]
@@ -648,8 +654,7 @@ def _read_auto_flexion(
         r.table(a, where, required=("joint", "point"), optional=("epsilon", "press", "times"))
         joint = r.string(a["joint"], f"{where}.joint")
         if joint not in skeleton.limits:
-            close = difflib.get_close_matches(joint, list(skeleton.limits), n=1)
-            hint = f"; did you mean {close[0]!r}?" if close else ""
+            hint = _hint(joint, list(skeleton.limits))
             raise r.fail(f"{where}.joint", joint, f"unknown joint angle{hint}")
         p = a["point"]
         if isinstance(p, str):
@@ -691,8 +696,7 @@ def _read_follow(r: _Reader, value: Any, skeleton: Skeleton | None) -> Follow | 
     if skeleton is None:
         raise r.fail("ball.follow.joint", joint, "the ball can follow a joint only with a [hand]")
     if joint not in skeleton.joint_names:
-        close = difflib.get_close_matches(joint, skeleton.joint_names, n=1)
-        hint = f"; did you mean {close[0]!r}?" if close else ""
+        hint = _hint(joint, skeleton.joint_names)
         raise r.fail("ball.follow.joint", joint, f"unknown joint{hint}")
     start = r.number(f["start"], "ball.follow.start")
     stop = r.number(f["stop"], "ball.follow.stop")
@@ -775,20 +779,13 @@ def _check_planes(
             return f"plane[{i}].offsets", [[t, *d] for t, d in p.offsets]
         return f"plane[{i}].point", list(p.point)
 
-    for k, t in enumerate(frames):
-        at = f"at frame {k} (t = {t:g})"
-        pts = [np.array(p.point) + p.offset(t) for p in planes]
-        nrm = [np.array(p.normal) for p in planes]
-        if follow is None or t <= follow.start:
-            for i, p in enumerate(planes):
-                s = float((c - pts[i]) @ nrm[i])
-                if s < 0:
-                    raise r.fail(
-                        *blame(i),
-                        f"{at} the ball's centre {list(ball.center)} lies behind the plane "
-                        f"{p.name!r} (signed distance {s:.6g} m): its normal must point "
-                        "toward the ball",
-                    )
+    def place(t: float) -> tuple[list[NDArray], list[NDArray]]:
+        return [np.array(p.point) + p.offset(t) for p in planes], [
+            np.array(p.normal) for p in planes
+        ]
+
+    for k, t in enumerate(frames):  # first planes through planes, at any frame
+        pts, nrm = place(t)
         for i in range(len(planes)):
             for j in range(i + 1, len(planes)):
                 if not nrm[i] @ nrm[j] < 0:
@@ -803,10 +800,28 @@ def _check_planes(
                     other = planes[i + j - worst].name
                     raise r.fail(
                         *blame(worst),
-                        f"{at} the planes {planes[worst].name!r} and {other!r} have passed "
-                        f"through each other (distance {s_j - s_i:.6g} m between them along "
-                        "their normals): no room for the ball",
+                        f"at frame {k} (t = {t:g}) the planes {planes[worst].name!r} and "
+                        f"{other!r} have passed through each other (distance {s_j - s_i:.6g} m "
+                        "between them along their normals): no room for the ball",
                     )
+    for k, t in enumerate(frames):  # then the ball's centre behind a plane
+        if follow is not None and t > follow.start:
+            break  # the ball has moved with the hand
+        pts, nrm = place(t)
+        for i, p in enumerate(planes):
+            dist = float((c - pts[i]) @ nrm[i])
+            if dist < 0:
+                start = float((c - np.array(p.point) - p.offset(frames[0])) @ nrm[i])
+                why = (
+                    "the plane has moved past it"
+                    if start >= 0
+                    else "the plane's normal must point toward the ball"
+                )
+                raise r.fail(
+                    *blame(i),
+                    f"at frame {k} (t = {t:g}) the ball's centre {list(ball.center)} lies "
+                    f"behind the plane {p.name!r} (signed distance {dist:.6g} m): {why}",
+                )
 
 
 def _read_solver(r: _Reader, data: dict) -> SolverScene:
