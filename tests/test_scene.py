@@ -561,3 +561,19 @@ def test_existing_output_directory_is_fine(scene_file, tmp_path: Path) -> None:
 
 def test_bad_cases_cover_the_issue() -> None:
     assert len(BAD) + len(BAD_NO_HAND) >= 30
+
+
+def test_docs_full_example_loads(scene_file) -> None:
+    doc = (ROOT / "docs" / "scene.md").read_text()
+    text = doc.split("```toml\n", 1)[1].split("```", 1)[0]
+    text = text.replace('"../meshes/hand', f'"{HAND_DIR}')
+    scene = load_scene(scene_file(text))
+    assert scene.gravity == (0.0, 0.0, -9.81)
+    assert scene.follow is not None and scene.hand.auto_flexion[0].press == 0.001
+    assert scene.hand.limits(["index_distal", "ring_distal"]) == {
+        "index_distal": 20.0,
+        "ring_distal": 40.0,
+    }
+    echo = scene.echo()
+    for section in ("scene", "ball", "hand", "plane", "frames", "solver", "output"):
+        assert echo[section], section
