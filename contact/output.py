@@ -224,7 +224,7 @@ def _jsonable(value: Any) -> Any:
     if isinstance(value, (int, np.integer)):
         return int(value)
     if isinstance(value, (float, np.floating)):
-        v = float(value)
+        v = float(value) + 0.0  # no -0.0
         return v if math.isfinite(v) else None
     if value is None or isinstance(value, str):
         return value
@@ -666,7 +666,10 @@ class ResultsWriter:
             os.rename(self.staging, d)
         except BaseException:
             if old is not None:
-                os.rename(old, d)
+                try:
+                    os.rename(old, d)
+                except OSError:
+                    log.error("the previous results of %s are left in %s", d, old)
             raise
         if old is not None:
             shutil.rmtree(old, ignore_errors=True)
@@ -739,10 +742,12 @@ class ResultsWriter:
             return f"skipped: {reason}"
         try:
             self._render_all()
-        except (ImportError, RuntimeError) as exc:
+        except OSError:
+            raise  # a file that cannot be written: an error of the results folder
+        except Exception as exc:  # pictures are not worth failing a run for
             shutil.rmtree(self.staging / "frames", ignore_errors=True)
-            log.warning("pictures skipped: rendering failed: %s", exc)
-            return f"skipped: rendering failed: {exc}"
+            log.warning("pictures skipped: rendering failed: %s", exc, exc_info=True)
+            return f"skipped: rendering failed: {type(exc).__name__}: {exc}"
         return "written"
 
     def _render_all(self) -> None:

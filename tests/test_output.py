@@ -349,6 +349,23 @@ def test_unwritable_or_foreign_folders_are_refused(tmp_path):
     assert (out / "summary.json").is_file()
 
 
+def test_pictures_skipped_without_rendering(tmp_path, monkeypatch, caplog):
+    import contact.output
+
+    monkeypatch.setattr(contact.output, "rendering_available", lambda: (False, "no OpenGL"))
+    bodies = scene_bodies()
+    res = frame_result({k: b.mesh for k, b in bodies.items()})
+    with ResultsWriter(tmp_path / "r") as w:
+        w.add_frame(0, 0.0, res, bodies)
+        out = w.finish({})
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["pictures"] == "skipped: no OpenGL"
+    assert "gif" not in summary["files"]
+    assert not (out / "frames").exists() and not (out / "grasp.gif").exists()
+    assert (out / "convergence.png").is_file()
+    assert "pictures skipped: no OpenGL" in caplog.text
+
+
 # --- a real solve, with pictures ------------------------------------------------------------
 
 
