@@ -568,6 +568,19 @@ def _read_hand(r: _Reader, data: dict, base: Path) -> tuple[HandScene, Skeleton]
         skeleton = load_skeleton(rig)
     except (RigError, OSError) as exc:
         raise r.fail("hand.rig", h.get("rig", str(rig)), f"bad rig: {exc}") from None
+    own = directory / "rig.toml"  # the rig the meshes were built from (load_hand reads it)
+    if "rig" in h and own.is_file() and own.resolve() != rig.resolve():
+        try:
+            theirs = load_skeleton(own)
+        except (RigError, OSError):
+            theirs = None
+        if theirs is None or (theirs.bone_names, theirs.joint_names) != (
+            skeleton.bone_names,
+            skeleton.joint_names,
+        ):
+            raise r.fail(
+                "hand.rig", h["rig"], f"its joints and bones differ from those of the meshes' {own}"
+            )
     flesh = r.material(h.get("flesh", {}), "hand.flesh", _FLESH)
     limit = None
     if "bone_force_limit" in h:

@@ -284,6 +284,17 @@ def test_relative_paths(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None
     assert scene.hand.rig == rig.resolve()
 
 
+def test_rig_that_does_not_match_the_meshes(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    rig = (HAND_DIR / "rig.toml").read_text()
+    (tmp_path / "rig.toml").write_text(rig.replace("[bones.carpus]", "[bones.carpals]"))
+    path = _write(tmp_path / "s.toml", BASE.replace("[hand]\n", '[hand]\nrig = "rig.toml"\n'))
+    with pytest.raises(SceneError, match=r"hand\.rig = 'rig\.toml': its joints and bones differ"):
+        load_scene(path)
+
+
 def _write(path: Path, text: str) -> Path:
     path.write_text(text)
     return path
