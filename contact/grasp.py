@@ -287,7 +287,11 @@ def run(
                 )
 
             result, extra, planes, solved = run_.frame(t, tell)
-            bodies = {b.name: BodyFrame(b.mesh, b.materials) for b in solved}
+            # the hand drawn half transparent, so that the ball's stress shows through
+            bodies = {
+                b.name: BodyFrame(b.mesh, b.materials, opacity=0.5 if b.name == "hand" else 1.0)
+                for b in solved
+            }
             entry = writer.add_frame(
                 i,
                 t,
