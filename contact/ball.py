@@ -174,9 +174,14 @@ def _refinement(radius: float, size: float) -> int:
 def _generate(spec: BallSpec) -> fem.Mesh:
     r, a, h, c = spec.radius, spec.inner_radius, float(spec.mesh_size), spec.center  # type: ignore[arg-type]
     if spec.element == "hex":
+        # an even number of cells along each cube edge puts a node at the six poles, where a
+        # plate or a table first touches (with an odd number the facets there sit below the
+        # sphere and a small press misses every node)
+        n = 2 * math.ceil(0.25 * math.pi * r / h - 1e-9)
         if spec.kind == "solid":
-            return fem.ball_mesh(r, h, divisions=math.ceil(0.5 * math.pi * r / h - 1e-9), center=c)
-        return fem.shell_mesh(a, r, h, layers=max(2, math.ceil((r - a) / h - 1e-9)), center=c)
+            return fem.ball_mesh(r, h, divisions=n, center=c)
+        layers = max(2, math.ceil((r - a) / h - 1e-9))
+        return fem.shell_mesh(a, r, h, divisions=n, layers=layers, center=c)
     pts, tri = fem.sphere_surface(r, c, _refinement(r, h))
     if spec.kind == "hollow":
         if h > 0.5 * (r - a):
@@ -229,7 +234,8 @@ def make_ball(spec: BallSpec) -> Ball:
     """Mesh a ball, or read and check its mesh file, and set up its pressure load.
 
     Bricks come from :func:`fem.ball_mesh` (solid; ``ceil(pi R / (2 h))`` cells along
-    each cube edge, so that surface edges are about ``h = mesh_size`` long) or
+    each cube edge rounded up to an even number, so that surface edges are about
+    ``h = mesh_size`` long and a node sits at each pole) or
     :func:`fem.shell_mesh` (hollow, with ``ceil(thickness / h)``, but at least 2,
     elements through the wall, so that the wall can bend). Tets come from
     :func:`fem.tetrahedralize` of an icosphere whose edges are no longer than ``h``
