@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 import fem
 from fem import MeshError
 
+from .handmesh import open_joints
 from .skeleton import Skeleton, load_skeleton
 from .surfaces import poly_from_arrays, surface_arrays
 
@@ -151,6 +152,7 @@ def load_hand(resolution: str = "coarse", directory: str | os.PathLike | None = 
         raise MeshError(f"{where}: bone {names[missing[0]]} has no prescribed node")
     if mesh.region_ids.max() >= len(skeleton.spec.groups):
         raise MeshError(f"{where}: a region id is not a hand part of the rig")
+    mesh, bone_id, cell_bone = open_joints(mesh, bone_id, cell_bone)  # older files
     skin = _read_poly(files["skin"])
     all_bones = _read_poly(files["bones"])
     if "bone_id" not in all_bones.cell_data:

@@ -27,7 +27,13 @@ from .surfaces import surface_arrays
 if TYPE_CHECKING:
     import pyvista
 
-__all__ = ["cell_bones", "label_bone_nodes", "merged_surface", "tetrahedralize_flesh"]
+__all__ = [
+    "cell_bones",
+    "label_bone_nodes",
+    "merged_surface",
+    "open_joints",
+    "tetrahedralize_flesh",
+]
 
 log = logging.getLogger(__name__)
 
@@ -158,3 +164,30 @@ def cell_bones(mesh: fem.Mesh, skeleton: Skeleton) -> NDArray[np.int64]:
     t = np.clip(np.einsum("cbk,bk->cb", c[:, None] - a, ab) / (ab * ab).sum(1), 0.0, 1.0)
     d = np.linalg.norm(c[:, None] - (a + t[..., None] * ab), axis=2)
     return np.argmin(d, axis=1)
+
+
+def open_joints(
+    mesh: fem.Mesh, bone_id: NDArray[np.int64], cell_bone: NDArray[np.int64]
+) -> tuple[fem.Mesh, NDArray[np.int64], NDArray[np.int64]]:
+    """Drop the tetrahedra whose four nodes are all fixed to bones, two bones or more.
+
+    They fill the gap between two bone ends across a joint: their nodes are all
+    prescribed, so they carry no unknown, only a spurious force from one bone to the next,
+    and any flexion shears them inside out (the bones turn rigidly about the joint). Without
+    them the joint is a thin cavity wrapped by the flesh around it, as in a real joint,
+    where the bone ends slide on cartilage. Nodes left in no cell are removed.
+    """
+    tets = mesh.cells["tetra"]
+    b = bone_id[tets]
+    across = (b >= 0).all(axis=1) & (b.min(axis=1) != b.max(axis=1))
+    if not across.any():
+        return mesh, bone_id, cell_bone
+    keep = ~across
+    used = np.zeros(mesh.n_points, dtype=bool)
+    used[tets[keep].ravel()] = True
+    new = np.full(mesh.n_points, -1, dtype=np.int64)
+    new[used] = np.arange(int(used.sum()))
+    cut = fem.Mesh(
+        mesh.points[used], {"tetra": new[tets[keep]]}, {"tetra": mesh.regions["tetra"][keep]}
+    )
+    return cut, bone_id[used], cell_bone[keep]

@@ -26,7 +26,11 @@ def test_flesh_mesh_is_valid(hand):
     mesh = hand.flesh
     # fem.Mesh validated it on reading (indices, positive Jacobians); read again explicitly
     again = fem.read_mesh(hand_files(hand.resolution)["flesh"])
-    assert again.n_points == mesh.n_points
+    assert again.n_points == mesh.n_points and again.n_cells == mesh.n_cells
+    # the joints are open: no tet has its four nodes fixed to two bones or more
+    b = hand.bone_id[mesh.cells["tetra"]]
+    across = (b >= 0).all(axis=1) & (b.min(axis=1) != b.max(axis=1))
+    assert not across.any()
     assert list(mesh.cells) == ["tetra"]
     assert (mesh.volumes["tetra"] > 0).all()
     assert set(np.unique(mesh.region_ids)) <= set(range(len(hand.part_names)))
@@ -55,7 +59,9 @@ def test_bones_are_holes(hand):
     """Inward bone surfaces became holes: flesh volume = skin volume - bone volumes."""
     skin = enclosed_volume(*surface_arrays(hand.skin))
     bones = sum(enclosed_volume(*surface_arrays(b)) for b in hand.bones.values())
-    assert hand.flesh.volume == pytest.approx(skin - bones, rel=0.02)
+    # less the joint cavities: the bone-to-bone tets dropped by load_hand (open_joints)
+    cavities = skin - bones - hand.flesh.volume
+    assert 0.0 < cavities < 0.04 * (skin - bones)
     assert bones > 0.1 * skin
 
 

@@ -104,8 +104,8 @@ def test_each_limit_poses_or_names_its_joint_and_element(hand, poser):
     assert 20 <= len(failed) <= 32
 
 
-def test_rigid_error_names_both_bones(poser):
-    with pytest.raises(PoseError, match=r"fixed to bones \(index_middle, index_proximal\)"):
+def test_error_names_the_joint_and_the_element(poser):
+    with pytest.raises(PoseError, match=r"element \d+ \(nodes \[.*\]\), at joint index_pip"):
         poser.pose({"index_pip": 110.0})
 
 
