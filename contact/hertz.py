@@ -58,6 +58,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import minimize_scalar
 
 import fem
+from fem.generators import graded_ball_mesh
 
 from .body import ElasticBody
 from .errors import ContactError
@@ -540,8 +541,6 @@ def hertz_check(
     -------
     HertzCheck
     """
-    from fem.generators import graded_ball_mesh
-
     if model not in HERTZ_MODELS:
         raise ContactError(f"model must be one of {sorted(HERTZ_MODELS)}, got {model!r}")
     if not 0 < depth < 0.2 * radius:
