@@ -1,0 +1,145 @@
+"""The command line ``python -m contact.grasp``: exit codes, results, bad input."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from contact.grasp import main
+
+ROOT = Path(__file__).resolve().parents[1]
+
+PLATES = """
+[scene]
+name = "plates"
+
+[ball]
+radius = 0.02
+kind = "solid"
+element = "hex"
+mesh_size = 0.003
+center = [0.0, 0.0, 0.02]
+material = {{ E = 1.0e6, nu = 0.3 }}
+
+[[plane]]
+name = "table"
+point = [0.0, 0.0, 0.0]
+normal = [0.0, 0.0, 1.0]
+
+[[plane]]
+name = "plate"
+point = [0.0, 0.0, 0.04]
+normal = [0.0, 0.0, -1.0]
+offsets = [[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, -0.002]]
+
+[frames]
+times = [0.5, 1.0]
+
+[solver]
+max_iterations = {iterations}
+
+[output]
+directory = "{out}"
+pictures = false
+"""
+
+
+def write(tmp_path, iterations=30, name="scene.toml"):
+    out = tmp_path / "results"
+    path = tmp_path / name
+    path.write_text(PLATES.format(out=out.as_posix(), iterations=iterations))
+    return path, out
+
+
+def test_plates_scene_runs_and_writes_every_result(tmp_path):
+    scene, out = write(tmp_path)
+    assert main([str(scene), "--quiet"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["all_converged"] and summary["all_realistic"]
+    frames = summary["frames"]
+    assert [f["time"] for f in frames] == [0.5, 1.0]
+    f1, f2 = (f["obstacle_forces"]["plate"]["magnitude"] for f in frames)
+    # Hertz: the force grows like the approach to the power 3/2 (2^1.5 = 2.83)
+    assert 2.3 < f2 / f1 < 3.4
+    assert (out / "ball.pvd").is_file()
+    assert (out / "ball_0000.vtu").is_file() and (out / "ball_0001.vtu").is_file()
+    assert (out / "convergence.png").stat().st_size > 1000
+    assert summary["scene"]["solver"]["algorithm"] == "contact-space"
+
+
+def test_frames_option_and_out_option(tmp_path):
+    scene, _ = write(tmp_path)
+    other = tmp_path / "other"
+    assert main([str(scene), "--quiet", "--frames", "1", "--out", str(other)]) == 0
+    summary = json.loads((other / "summary.json").read_text())
+    assert [f["time"] for f in summary["frames"]] == [1.0]
+
+
+def test_not_converged_exits_1_and_still_writes(tmp_path):
+    scene, out = write(tmp_path, iterations=1)
+    assert main([str(scene), "--quiet"]) == 1
+    summary = json.loads((out / "summary.json").read_text())
+    assert not summary["all_converged"]
+    assert summary["frames"][-1]["verdict"]["realistic"] is False
+
+
+@pytest.mark.parametrize(
+    ("edit", "words"),
+    [
+        (lambda s: s.replace("radius = 0.02", "radius = -0.02"), "ball.radius"),
+        (lambda s: s.replace("nu = 0.3", "nu = 0.5"), "nu"),
+        (lambda s: s.replace("[frames]", "[frames]\nbogus = 1"), "frames.bogus"),
+        (lambda s: s.replace("max_iterations = 30", "max_iterations = 0"), "max_iterations"),
+        (lambda s: s + "\n[oops", "not valid TOML"),
+    ],
+)
+def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, capsys, edit, words):
+    scene, out = write(tmp_path)
+    scene.write_text(edit(scene.read_text()))
+    assert main([str(scene), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: ") and "\n" not in err and "Traceback" not in err
+    assert words in err
+    assert not out.exists()
+
+
+def test_missing_scene_and_bad_frame_index(tmp_path, capsys):
+    assert main([str(tmp_path / "none.toml"), "--quiet"]) == 2
+    assert "none.toml" in capsys.readouterr().err
+    scene, out = write(tmp_path)
+    assert main([str(scene), "--quiet", "--frames", "7"]) == 2
+    assert "--frames 7" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_an_old_results_folder_is_kept_when_the_new_run_fails(tmp_path):
+    scene, out = write(tmp_path)
+    assert main([str(scene), "--quiet"]) == 0
+    before = (out / "summary.json").read_text()
+    bad = tmp_path / "bad.toml"
+    bad.write_text(scene.read_text().replace("radius = 0.02", "radius = 0.02\nkind = 3"))
+    assert main([str(bad), "--quiet"]) == 2
+    assert (out / "summary.json").read_text() == before
+
+
+def test_help_and_version_from_a_subprocess():
+    run = subprocess.run(
+        [sys.executable, "-m", "contact.grasp", "--help"],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        check=False,
+    )
+    assert run.returncode == 0
+    for option in ("--out", "--frames", "--no-pictures", "--quiet", "--version", "Exit status"):
+        assert option in run.stdout
+    run = subprocess.run(
+        [sys.executable, "-m", "contact.grasp", "--version"],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        check=False,
+    )
+    assert run.returncode == 0 and "0.1" in run.stdout
