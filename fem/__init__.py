@@ -10,7 +10,14 @@ from __future__ import annotations
 from .assembly import assemble_stiffness, element_dofs, element_stiffness
 from .elements import ELEMENTS, HEX8, TET4, WEDGE6, ReferenceElement
 from .errors import FemError, LoadError, MaterialError, MeshError, SolverError
-from .generators import ball_mesh, box_mesh, hex_to_tet, node_dofs, shell_mesh
+from .generators import (
+    ball_mesh,
+    box_mesh,
+    graded_ball_mesh,
+    hex_to_tet,
+    node_dofs,
+    shell_mesh,
+)
 from .io import read_mesh, read_mesh_data, write_mesh
 from .linsolve import available_backends, factorize
 from .loads import (
@@ -60,6 +67,7 @@ __all__ = [
     "factorize",
     "from_pyvista",
     "gauss_strain",
+    "graded_ball_mesh",
     "gravity_load",
     "hex_to_tet",
     "initial_stress_load",
