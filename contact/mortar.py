@@ -233,7 +233,8 @@ def _candidates(s: _Facets, m: _Facets, search: float) -> tuple[NDArray, NDArray
     )
     i, j = pairs["i"].astype(np.int64), pairs["j"].astype(np.int64)
     keep = np.all((s.lo[i] - search <= m.hi[j]) & (m.lo[j] <= s.hi[i] + search), axis=1)
-    keep &= np.einsum("pi,pi->p", s.normal[i], m.normal[j]) < 0.0
+    # facing; a master facet (nearly) perpendicular to the slave projects onto nothing
+    keep &= np.einsum("pi,pi->p", s.normal[i], m.normal[j]) < -1e-6
     order = np.lexsort((j[keep], i[keep]))
     return i[keep][order], j[keep][order]
 
@@ -280,31 +281,32 @@ def _clip(subject: NDArray, clip: NDArray) -> tuple[NDArray, NDArray]:
 
 
 def _shape(facet: NDArray, x: NDArray) -> NDArray:
-    """Shape functions (P, Q, k) of planar triangles or quads (P, k, 2) at points (P, Q, 2)."""
+    """Shape functions (n, k) of planar triangles or quads (n, k, 2) at points (n, 2)."""
     if facet.shape[1] == 3:
         e1, e2 = facet[:, 1] - facet[:, 0], facet[:, 2] - facet[:, 0]
-        det = _cross2(e1, e2)[:, None]
-        r = x - facet[:, None, 0]
-        l1 = _cross2(r, e2[:, None]) / det
-        l2 = _cross2(e1[:, None], r) / det
+        det = _cross2(e1, e2)
+        r = x - facet[:, 0]
+        l1 = _cross2(r, e2) / det
+        l2 = _cross2(e1, r) / det
         return np.stack([1 - l1 - l2, l1, l2], axis=-1)
-    # bilinear on [0, 1]^2: x = x0 + a xi + b eta + c xi eta, inverted by Newton
-    x0 = facet[:, None, 0]
-    a = (facet[:, 1] - facet[:, 0])[:, None]
-    b = (facet[:, 3] - facet[:, 0])[:, None]
-    c = (facet[:, 2] - facet[:, 1] - facet[:, 3] + facet[:, 0])[:, None]
-    xi = np.full(x.shape[:2], 0.5)
-    eta = np.full(x.shape[:2], 0.5)
+    # bilinear on [0, 1]^2: x = x0 + a xi + b eta + c xi eta, inverted by Newton (exact in
+    # one step on parallelograms; quadratic: a step below 1e-12 leaves ~1e-24)
+    a = facet[:, 1] - facet[:, 0]
+    b = facet[:, 3] - facet[:, 0]
+    c = facet[:, 2] - facet[:, 1] - facet[:, 3] + facet[:, 0]
+    r0 = facet[:, 0] - x
+    xi = np.full(len(x), 0.5)
+    eta = np.full(len(x), 0.5)
     for _ in range(_NEWTON):
-        r = x0 + a * xi[..., None] + b * eta[..., None] + c * (xi * eta)[..., None] - x
-        jx = a + c * eta[..., None]  # d x / d xi
-        je = b + c * xi[..., None]  # d x / d eta
+        r = r0 + a * xi[:, None] + b * eta[:, None] + c * (xi * eta)[:, None]
+        jx = a + c * eta[:, None]  # d x / d xi
+        je = b + c * xi[:, None]  # d x / d eta
         det = _cross2(jx, je)
         dxi = _cross2(r, je) / det
         deta = _cross2(jx, r) / det
         xi -= dxi
         eta -= deta
-        if max(np.abs(dxi).max(initial=0.0), np.abs(deta).max(initial=0.0)) < 1e-15:
+        if max(np.abs(dxi).max(initial=0.0), np.abs(deta).max(initial=0.0)) < 1e-12:
             break
     return np.stack([(1 - xi) * (1 - eta), xi * (1 - eta), xi * eta, (1 - xi) * eta], axis=-1)
 
@@ -320,22 +322,26 @@ def _integrate(
     ps = np.stack([((xs - c) * t1).sum(-1), ((xs - c) * t2).sum(-1)], axis=-1)
     pm = np.stack([((xm - c) * t1).sum(-1), ((xm - c) * t2).sum(-1)], axis=-1)
     poly, count = _clip(pm, ps)
+    # fan triangles (p0, pa, pb) of the clip polygons with an area
     p0 = poly[:, :1]
     pa, pb = poly[:, 1:-1], poly[:, 2:]
-    fan = np.arange(pa.shape[1])[None, :] + 2 < count[:, None]
-    area = 0.5 * np.abs(_cross2(pa - p0, pb - p0)) * fan  # (P, T)
+    area = 0.5 * np.abs(_cross2(pa - p0, pb - p0))
+    area[np.arange(pa.shape[1])[None, :] + 2 >= count[:, None]] = 0.0
+    pair, tri = np.nonzero(area > 0)
     bary, w = rule
-    pts = (
-        bary[None, None, :, 0, None] * p0[:, :, None]
-        + bary[None, None, :, 1, None] * pa[:, :, None]
-        + bary[None, None, :, 2, None] * pb[:, :, None]
-    )  # (P, T, q, 2)
-    npair = len(i)
-    pts = pts.reshape(npair, -1, 2)
-    wq = (area[:, :, None] * w).reshape(npair, -1)
-    ns, nm = _shape(ps, pts), _shape(pm, pts)
-    d = np.einsum("pq,pqa,pqb->pab", wq, ns, ns)
-    m = np.einsum("pq,pqa,pqc->pac", wq, ns, nm)
+    q = len(w)
+    pts = np.einsum("qk,tkj->tqj", bary, np.stack([poly[pair, 0], pa[pair, tri], pb[pair, tri]], 1))
+    pts = pts.reshape(-1, 2)
+    wq = (area[pair, tri][:, None] * w).ravel()
+    at = np.repeat(pair, q)
+    ns, nm = _shape(ps[at], pts), _shape(pm[at], pts)
+    d = np.zeros((len(i), ps.shape[1], ps.shape[1]))
+    m = np.zeros((len(i), ps.shape[1], pm.shape[1]))
+    if at.size:
+        start = np.flatnonzero(np.r_[True, at[1:] != at[:-1]])
+        wns = wq[:, None] * ns
+        d[at[start]] = np.add.reduceat(wns[:, :, None] * ns[:, None, :], start)
+        m[at[start]] = np.add.reduceat(wns[:, :, None] * nm[:, None, :], start)
     return d, m
 
 

@@ -291,6 +291,24 @@ def test_node_to_surface_fails_the_patch_test(ratio):
     assert _stress_error(upper, lower, u_up, u_lo) > 0.3  # measured 0.33 .. 0.54
 
 
+@pytest.mark.parametrize("ratio", [0.01, 1.0, 100.0])
+def test_patch_test_through_the_contact_space(ratio):
+    # the solver's own contact-space solve (W lambda = -gap), unchanged, on the mortar rows:
+    # the upper block free (held by the contacts; its loads balance in the free directions)
+    from contact.body import ElasticBody
+    from contact.delassus import ContactSpace
+
+    (up, mat_up, _, f_up, _), (lo, mat_lo, _, fix_lo) = _patch_problem(ratio)
+    upper = ElasticBody("upper", up, mat_up, loads=f_up)
+    lower = ElasticBody("lower", lo, mat_lo, prescribed=fix_lo)
+    c = mortar_coupling(up.points, _faces_at(up, 1.0), lo.points, _faces_at(lo, 1.0), search=0)
+    e_up, e_lo = c.rows(up.n_points, lo.n_points)
+    lam, states = ContactSpace([upper, lower]).solve({"upper": e_up, "lower": e_lo}, c.mean_gap0)
+    assert np.abs(lam / c.area - P).max() < 1e-10 * P  # measured 7e-14 .. 2e-12
+    err = _stress_error((up, mat_up), (lo, mat_lo), states["upper"].u, states["lower"].u)
+    assert err < 1e-10  # measured 2e-14 .. 5e-13
+
+
 # ---------------------------------------------------------------- curved surfaces
 
 
