@@ -291,6 +291,21 @@ def test_node_to_surface_fails_the_patch_test(ratio):
     assert _stress_error(upper, lower, u_up, u_lo) > 0.3  # measured 0.33 .. 0.54
 
 
+def test_quads_split_in_triangles_fail_the_patch_test():
+    # the hex faces' trace is bilinear: integrating them as triangle pairs is inconsistent
+    upper, lower = _patch_problem(1.0)
+    up, lo = upper[0], lower[0]
+
+    def split(q):
+        return np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]])
+
+    c = mortar_coupling(
+        up.points, split(_faces_at(up, 1.0)), lo.points, split(_faces_at(lo, 1.0)), search=0
+    )
+    u_up, u_lo, _ = _solve_tied(upper, lower, *c.rows(up.n_points, lo.n_points))
+    assert _stress_error(upper, lower, u_up, u_lo) > 0.05  # measured 0.077
+
+
 @pytest.mark.parametrize("ratio", [0.01, 1.0, 100.0])
 def test_patch_test_through_the_contact_space(ratio):
     # the solver's own contact-space solve (W lambda = -gap), unchanged, on the mortar rows:
