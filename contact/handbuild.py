@@ -20,7 +20,13 @@ import fem
 from .bones import bone_surfaces
 from .hand import Hand, hand_files
 from .handchecks import bone_gaps, check_hand_geometry, flesh_thickness
-from .handmesh import cell_bones, label_bone_nodes, open_joints, tetrahedralize_flesh
+from .handmesh import (
+    cell_bones,
+    joint_pairs,
+    label_bone_nodes,
+    open_joints,
+    tetrahedralize_flesh,
+)
 from .meshquality import quality_summary
 from .metaballs import skin_surface
 from .skeleton import Skeleton
@@ -122,7 +128,7 @@ def build_hand(skeleton: Skeleton, res: Resolution) -> tuple[Hand, dict[str, flo
     cell_bone = cell_bones(mesh, skeleton)
     parts = np.array([spec.groups.index(b.part) for b in skeleton.bones.values()])
     flesh = fem.Mesh(mesh.points, mesh.cells, {"tetra": parts[cell_bone]})
-    flesh, bone_id, cell_bone = open_joints(flesh, bone_id, cell_bone)
+    flesh, bone_id, cell_bone = open_joints(flesh, bone_id, cell_bone, joint_pairs(skeleton))
     timings["labels"] = time.perf_counter() - t0
     log.info("hand %s: %s in %s", res.name, flesh, {k: round(v, 1) for k, v in timings.items()})
     return Hand(skeleton, flesh, bone_id, cell_bone, skin, bones, res.name), timings

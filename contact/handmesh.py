@@ -12,7 +12,7 @@ palm 0, thumb 1, index 2, ...), and its nearest bone.
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -29,6 +29,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "cell_bones",
+    "joint_pairs",
     "label_bone_nodes",
     "merged_surface",
     "open_joints",
@@ -166,20 +167,44 @@ def cell_bones(mesh: fem.Mesh, skeleton: Skeleton) -> NDArray[np.int64]:
     return np.argmin(d, axis=1)
 
 
-def open_joints(
-    mesh: fem.Mesh, bone_id: NDArray[np.int64], cell_bone: NDArray[np.int64]
-) -> tuple[fem.Mesh, NDArray[np.int64], NDArray[np.int64]]:
-    """Drop the tetrahedra whose four nodes are all fixed to bones, two bones or more.
+def joint_pairs(skeleton: Skeleton) -> list[tuple[int, int]]:
+    """The (parent bone, child bone) ids of every joint of a skeleton (bone-id order)."""
+    carried = {b.joint: i for i, b in enumerate(skeleton.bones.values())}
+    pairs = []
+    for i, b in enumerate(skeleton.bones.values()):
+        parent = skeleton.joints[b.joint].parent if b.joint in skeleton.joints else None
+        if parent is not None and parent in carried:
+            pairs.append((carried[parent], i))
+    return pairs
 
-    They fill the gap between two bone ends across a joint: their nodes are all
+
+def open_joints(
+    mesh: fem.Mesh,
+    bone_id: NDArray[np.int64],
+    cell_bone: NDArray[np.int64],
+    joints: Sequence[tuple[int, int]] | None = None,
+) -> tuple[fem.Mesh, NDArray[np.int64], NDArray[np.int64]]:
+    """Open the joints: drop the tetrahedra that tie two bones across a joint.
+
+    Always dropped: the tetrahedra whose four nodes are all fixed to bones, two bones or
+    more. They fill the gap between two bone ends across a joint: their nodes are all
     prescribed, so they carry no unknown, only a spurious force from one bone to the next,
-    and any flexion shears them inside out (the bones turn rigidly about the joint). Without
-    them the joint is a thin cavity wrapped by the flesh around it, as in a real joint,
-    where the bone ends slide on cartilage. Nodes left in no cell are removed.
+    and any flexion shears them inside out (the bones turn rigidly about the joint).
+
+    With ``joints`` (see :func:`joint_pairs`): also every tetrahedron with nodes fixed to
+    both bones of a joint. Such a tetrahedron spans the 1 mm gap between the two bone ends
+    with one or two free nodes; the bones turn past each other and its fixed nodes turn
+    its face over (the plane through two nodes of one bone and one of the other flips
+    with the flexion), which no position of the free node can undo, and the free nodes
+    squeezed between the two bone ends have nowhere to go. Without them the joint is a
+    cavity inside the flesh around it (the skin is untouched), as in a real joint, where
+    the bone ends slide on cartilage. Nodes left in no cell are removed.
     """
     tets = mesh.cells["tetra"]
     b = bone_id[tets]
     across = (b >= 0).all(axis=1) & (b.min(axis=1) != b.max(axis=1))
+    for parent, child in joints or ():
+        across |= (b == parent).any(axis=1) & (b == child).any(axis=1)
     if not across.any():
         return mesh, bone_id, cell_bone
     keep = ~across

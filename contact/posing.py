@@ -15,6 +15,14 @@ builds the FE stiffness on the posed mesh and prescribes the bone nodes::
 vectorised over nodes; :func:`pose_hand` keeps one poser per hand. A pose that inverts a
 tetrahedron raises :class:`~contact.errors.PoseError` naming the joint and the element
 (``check=False`` returns the pose with :attr:`Pose.inverted` filled instead).
+
+The JLD mapping alone folds the flesh at deep flexions (the palmar flesh of a joint is
+squeezed between the two bones, the skin of a joint's crease turns over): a final, bounded
+correction, :class:`FleshRelaxer`, takes the free nodes around every tetrahedron the
+mapping degraded (quality below :data:`RELAX_QUALITY` and below half its rest quality,
+the rings of tetrahedra around them) and moves them, the bones and every other node held,
+to the minimum of an untangling distortion energy measured from the rest shape. Where the
+mapping keeps every tetrahedron fair, nothing moves (the rest pose is exact).
 """
 
 from __future__ import annotations
@@ -26,6 +34,8 @@ from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import minimize
+from scipy.sparse import csr_matrix
 
 import fem
 
@@ -34,7 +44,23 @@ from .hand import Hand
 from .jld import JLDMap
 from .skeleton import PIVOT_SUFFIX
 
-__all__ = ["HandPoser", "Pose", "pose_hand", "tet_quality", "tet_volumes"]
+__all__ = [
+    "RELAX_QUALITY",
+    "RELAX_STOP",
+    "FleshRelaxer",
+    "HandPoser",
+    "Pose",
+    "pose_hand",
+    "tet_quality",
+    "tet_volumes",
+]
+
+#: A tetrahedron whose quality falls below this (and below half its rest quality) is
+#: relaxed by :class:`FleshRelaxer`.
+RELAX_QUALITY = 0.05
+#: The relaxation stops once every tetrahedron it moves is above this fraction of that
+#: threshold (a fifth: quality 0.01 at least).
+RELAX_STOP = 0.2
 
 
 def tet_volumes(points: ArrayLike, tets: ArrayLike) -> NDArray[np.float64]:
@@ -57,6 +83,170 @@ def tet_quality(points: ArrayLike, tets: ArrayLike) -> NDArray[np.float64]:
     return 6.0 * np.sqrt(2.0) * v / lrms**3
 
 
+class FleshRelaxer:
+    """Untangles and relaxes the free nodes around degraded tetrahedra of a posed mesh.
+
+    The energy of a tetrahedron with deformation gradient ``F`` (from its rest shape),
+    ``J = det F`` and rest volume ``V`` is ``V (|F|^2 / (3 h^(2/3)) + kappa (h + 1/h) / 2)``:
+    the mean-ratio distortion (1 for a rotation, growing with any change of shape) and a
+    volume term (least at the rest volume), with ``h = (J + sqrt(J^2 + 4 delta^2)) / 2``
+    the regularised determinant of Escobar et al. (2003), positive even for an inverted
+    tetrahedron, so the energy is finite and smooth on a tangled start and pushes every
+    volume positive (it grows as ``1/h``, like ``|J| / delta^2``, on inverted ones).
+
+    Parameters
+    ----------
+    points : array_like, shape (N, 3)
+        Rest positions.
+    tets : array_like of int, shape (M, 4)
+        Positively oriented tetrahedra.
+    fixed : array_like of bool, shape (N,)
+        Nodes that never move (the bone nodes).
+    kappa, delta : float
+        Weight of the volume term and the regularisation of the determinant.
+    rings : int
+        Rings of tetrahedra around the degraded ones whose free nodes move.
+    rounds : int
+        At most this many passes (each on the tetrahedra still degraded, one ring more).
+    maxiter : int
+        L-BFGS iterations per pass.
+    """
+
+    def __init__(
+        self,
+        points: ArrayLike,
+        tets: ArrayLike,
+        fixed: ArrayLike,
+        *,
+        kappa: float = 1.0,
+        delta: float = 1e-2,
+        rings: int = 2,
+        rounds: int = 3,
+        maxiter: int = 200,
+    ) -> None:
+        x = np.asarray(points, dtype=np.float64)
+        self.tets = np.ascontiguousarray(tets, dtype=np.int64)
+        self.fixed = np.asarray(fixed, dtype=bool)
+        dm = np.transpose(x[self.tets[:, 1:]] - x[self.tets[:, :1]], (0, 2, 1))
+        self._bm = np.linalg.inv(dm)
+        self._bmt = np.ascontiguousarray(np.transpose(self._bm, (0, 2, 1)))
+        self._vol = np.linalg.det(dm) / 6.0
+        self.rest_quality = tet_quality(x, self.tets)
+        self.kappa, self.delta = float(kappa), float(delta)
+        self.rings, self.rounds, self.maxiter = int(rings), int(rounds), int(maxiter)
+        m = len(self.tets)
+        self._n2t = csr_matrix(
+            (np.ones(4 * m), (self.tets.ravel(), np.repeat(np.arange(m), 4))),
+            shape=(len(x), m),
+        )
+
+    def degraded(self, x: NDArray[np.float64]) -> NDArray[np.int64]:
+        """Tetrahedra below :data:`RELAX_QUALITY` and below half their rest quality."""
+        q = tet_quality(x, self.tets)
+        return np.flatnonzero((q < RELAX_QUALITY) & (q < 0.5 * self.rest_quality))
+
+    def energy(
+        self, x: NDArray[np.float64], cells: NDArray[np.int64] | None = None
+    ) -> tuple[float, NDArray[np.float64]]:
+        """Energy of the tetrahedra ``cells`` (default all) and its gradient, shape (N, 3)."""
+        cells = np.arange(len(self.tets)) if cells is None else cells
+        e, g = self._energy(
+            x, self.tets[cells], self._bm[cells], self._bmt[cells], self._vol[cells]
+        )
+        grad = np.zeros_like(x)
+        t = self.tets[cells]
+        for k in range(3):
+            grad[:, k] = np.bincount(t.ravel(), g[..., k].ravel(), minlength=len(x))
+        return e, grad
+
+    def _energy(self, x, tets, bm, bmt, vol):
+        """Energy and the gradient per tetrahedron node, shape (m, 4, 3)."""
+        ds = np.transpose(x[tets[:, 1:]] - x[tets[:, :1]], (0, 2, 1))
+        f = ds @ bm
+        f0, f1, f2 = f[:, :, 0], f[:, :, 1], f[:, :, 2]
+        cof = np.stack([np.cross(f1, f2), np.cross(f2, f0), np.cross(f0, f1)], axis=2)
+        j = np.einsum("ij,ij->i", f0, cof[:, :, 0])
+        r = np.sqrt(j * j + 4.0 * self.delta**2)
+        h = 0.5 * (j + r)
+        nf = np.einsum("ijk,ijk->i", f, f)
+        h23 = h ** (-2.0 / 3.0)
+        e = float((vol * (nf * h23 / 3.0 + 0.5 * self.kappa * (h + 1.0 / h))).sum())
+        dj = (-(2.0 / 9.0) * nf * h23 / h + 0.5 * self.kappa * (1.0 - 1.0 / (h * h))) * h / r
+        gf = (2.0 / 3.0) * h23[:, None, None] * f + dj[:, None, None] * cof
+        gd = (vol[:, None, None] * gf) @ bmt  # d energy / d edge vectors (columns)
+        gd = np.transpose(gd, (0, 2, 1))  # rows: edges 1, 2, 3
+        return e, np.concatenate([-gd.sum(axis=1, keepdims=True), gd], axis=1)
+
+    def relax(self, x: ArrayLike) -> tuple[NDArray[np.float64], int]:
+        """Move the free nodes around the degraded tetrahedra of the posed points ``x``.
+
+        Returns
+        -------
+        points : ndarray, shape (N, 3)
+            ``x`` itself (not copied) when no tetrahedron is degraded.
+        moved : int
+            Free nodes moved.
+        """
+        x = np.asarray(x, dtype=np.float64)
+        bad = self.degraded(x)
+        if len(bad) == 0:
+            return x, 0
+        x = x.copy()
+        moved = np.zeros(len(x), dtype=bool)
+        for k in range(self.rounds):
+            nodes = np.unique(self.tets[bad])
+            for _ in range(self.rings + k):
+                nodes = np.unique(self.tets[self._n2t[nodes].indices])
+            free = nodes[~self.fixed[nodes]]
+            if len(free) == 0:
+                break
+            moved[free] = True
+            self._minimise(x, free)
+            bad = self.degraded(x)
+            if len(bad) == 0 or not (tet_volumes(x, self.tets[bad]) <= 0.0).any():
+                break
+        return x, int(moved.sum())
+
+    def _minimise(self, x: NDArray[np.float64], free: NDArray[np.int64]) -> None:
+        cells = np.unique(self._n2t[free].indices)
+        tets, bm, bmt, vol = self.tets[cells], self._bm[cells], self._bmt[cells], self._vol[cells]
+        local = np.full(len(x), len(free), dtype=np.int64)
+        local[free] = np.arange(len(free))
+        slot = local[tets].ravel()
+        n = len(free) + 1
+
+        def fun(z: NDArray) -> tuple[float, NDArray]:
+            x[free] = z.reshape(-1, 3)
+            e, g = self._energy(x, tets, bm, bmt, vol)
+            grad = np.stack(
+                [np.bincount(slot, g[..., k].ravel(), minlength=n)[:-1] for k in range(3)],
+                axis=1,
+            )
+            return e, grad.ravel()
+
+        rest_q = self.rest_quality[cells]
+        count = [0]
+
+        floor = RELAX_STOP * np.minimum(RELAX_QUALITY, 0.5 * rest_q)
+
+        def done(z: NDArray) -> None:  # stop once the patch is fair enough
+            count[0] += 1
+            if count[0] % 5 == 0:
+                x[free] = z.reshape(-1, 3)
+                if (tet_quality(x, tets) > floor).all():
+                    raise StopIteration
+
+        res = minimize(
+            fun,
+            x[free].ravel(),
+            jac=True,
+            method="L-BFGS-B",
+            callback=done,
+            options={"maxiter": self.maxiter, "gtol": 1e-12, "ftol": 1e-12},
+        )
+        x[free] = res.x.reshape(-1, 3)
+
+
 @dataclass(frozen=True)
 class Pose:
     """The hand in one pose.
@@ -77,6 +267,8 @@ class Pose:
     regions : ndarray, shape (M,)
     inverted : ndarray of int
         Tetrahedra with a non-positive volume (empty unless posed with ``check=False``).
+    relaxed : int
+        Free nodes the :class:`FleshRelaxer` moved off their JLD positions.
     """
 
     angles: dict[str, float]
@@ -86,6 +278,7 @@ class Pose:
     tets: NDArray[np.int64]
     regions: NDArray[np.int64]
     inverted: NDArray[np.int64]
+    relaxed: int = 0
 
     @cached_property
     def quality(self) -> NDArray[np.float64]:
@@ -109,6 +302,9 @@ class HandPoser:
     ----------
     hand : Hand
         From :func:`contact.load_hand`.
+    relax : bool
+        Relax the flesh around the tetrahedra the JLD mapping degrades
+        (:class:`FleshRelaxer`); False: the JLD mapping alone.
 
     Examples
     --------
@@ -117,11 +313,14 @@ class HandPoser:
     >>> skin = poser.skin_points({"index_mcp": 30.0})  # doctest: +SKIP
     """
 
-    def __init__(self, hand: Hand) -> None:
+    def __init__(self, hand: Hand, relax: bool = True) -> None:
         self.hand = hand
         self.flesh_map = JLDMap(hand.skeleton, hand.flesh.points, hand.bone_id)
         self._tets = np.ascontiguousarray(hand.flesh.cells["tetra"])
         self._regions = np.asarray(hand.flesh.regions["tetra"])
+        self.relaxer = (
+            FleshRelaxer(hand.flesh.points, self._tets, hand.bone_id >= 0) if relax else None
+        )
 
     @cached_property
     def skin_map(self) -> JLDMap:
@@ -156,13 +355,17 @@ class HandPoser:
         """
         sk = self.hand.skeleton
         full = {k: float(v) for k, v in sk.check_angles(angles).items()}
-        disp = self.flesh_map.displacement(full)
-        points = self.hand.flesh.points + disp
+        rest = self.hand.flesh.points
+        points = rest + self.flesh_map.displacement(full)
+        moved = 0
+        if self.relaxer is not None:
+            points, moved = self.relaxer.relax(points)
+        disp = points - rest
         tf = sk.forward_kinematics(full)
         inverted = np.flatnonzero(tet_volumes(points, self._tets) <= 0.0)
         if check and len(inverted):
             raise self.inversion_error(full, inverted)
-        return Pose(full, points, disp, tf, self._tets, self._regions, inverted)
+        return Pose(full, points, disp, tf, self._tets, self._regions, inverted, moved)
 
     def skin_points(self, angles: Mapping[str, float] | None = None) -> NDArray[np.float64]:
         """Posed vertices of the skin surface ``hand.skin``, shape (n_skin, 3)."""

@@ -18,6 +18,7 @@ from pathlib import Path
 from contact.hand import HAND_DIR, RESOLUTIONS, load_hand
 from contact.handbuild import COARSE, FINE, build_hand, hand_report, write_hand
 from contact.handchecks import finger_widths
+from contact.handmesh import joint_pairs, open_joints
 from contact.handplot import SIDE_VIEW, render_hand
 from contact.metaballs import skin_surface
 from contact.skeleton import load_skeleton
@@ -71,14 +72,44 @@ def pictures(directory: Path) -> None:
     )
 
 
+def reopen(resolution: str, directory: Path) -> dict:
+    """Open the joints of a shipped flesh file again (no re-meshing) and rewrite it.
+
+    For files meshed before :func:`contact.handmesh.open_joints` dropped every
+    tetrahedron tied to both bones of a joint; returns the file's new report.
+    """
+    import dataclasses
+
+    hand = load_hand(resolution, directory)
+    flesh, bone_id, cell_bone = open_joints(
+        hand.flesh, hand.bone_id, hand.cell_bone, joint_pairs(hand.skeleton)
+    )
+    write_hand(
+        dataclasses.replace(hand, flesh=flesh, bone_id=bone_id, cell_bone=cell_bone), directory
+    )
+    return hand_report(load_hand(resolution, directory))
+
+
 def main(argv: list[str] | None = None) -> None:
     """Command-line entry point."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--resolution", nargs="+", choices=RESOLUTIONS, default=list(RESOLUTIONS))
     parser.add_argument("--dir", type=Path, default=HAND_DIR, help="folder with rig.toml")
     parser.add_argument("--no-pictures", action="store_true")
+    parser.add_argument(
+        "--reopen", action="store_true", help="only open the joints of the shipped flesh files"
+    )
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s: %(message)s")
+    if args.reopen:
+        report_path = args.dir / "quality.json"
+        report = json.loads(report_path.read_text())
+        for res in args.resolution:
+            entry = reopen(res, args.dir)
+            report[res].update({k: entry[k] for k in ("bones", "flesh")})
+            log.info("%s reopened: %s", res, json.dumps(entry["flesh"]))
+        report_path.write_text(json.dumps(report, indent=2) + "\n")
+        return
     skeleton = load_skeleton(args.dir / "rig.toml")
     report_path = args.dir / "quality.json"
     report = json.loads(report_path.read_text()) if report_path.is_file() else {}

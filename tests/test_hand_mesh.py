@@ -59,9 +59,9 @@ def test_bones_are_holes(hand):
     """Inward bone surfaces became holes: flesh volume = skin volume - bone volumes."""
     skin = enclosed_volume(*surface_arrays(hand.skin))
     bones = sum(enclosed_volume(*surface_arrays(b)) for b in hand.bones.values())
-    # less the joint cavities: the bone-to-bone tets dropped by load_hand (open_joints)
+    # less the joint cavities: the tets tied to both bones of a joint (open_joints, 5 %)
     cavities = skin - bones - hand.flesh.volume
-    assert 0.0 < cavities < 0.04 * (skin - bones)
+    assert 0.0 < cavities < 0.06 * (skin - bones)
     assert bones > 0.1 * skin
 
 
