@@ -41,7 +41,7 @@ from .body import ElasticBody
 from .delassus import BodyState, ContactSpace
 from .errors import ContactError
 from .geometry import Plane
-from .pairs import ContactPair, ContactRows, Penetrations, measure
+from .pairs import ContactPair, ContactRows, Penetrations, measure, mortar_candidates
 from .results import FrameResult, IterationRecord
 
 __all__ = ["ALGORITHMS", "RELAXATIONS", "ContactSettings", "solve_frame"]
@@ -162,7 +162,13 @@ class _Frame:
         )  # broad-phase margin: one element
         self.callback: Callable[[IterationRecord], None] | None = None
         self.extent = float(np.ptp(np.vstack([b.mesh.points for b in self.bodies]), axis=0).max())
-        self.timings = {"geometry": 0.0, "contact solve": 0.0, "bodies": 0.0}
+        self.timings = {"geometry": 0.0, "contact solve": 0.0, "bodies": 0.0, "mortar": 0.0}
+        t = time.perf_counter()
+        # mortar rows come from the reference geometry, once per frame
+        self.mortar = {
+            i: mortar_candidates(p, i, self.margin) for i, p in enumerate(self.pairs) if p.mortar
+        }
+        self.timings["mortar"] = time.perf_counter() - t
 
     def record(self, history: list[IterationRecord], rec: IterationRecord) -> None:
         """Append an iteration's record and tell the callback."""
@@ -184,7 +190,7 @@ class _Frame:
     def new_rows(
         self,
         rows: ContactRows,
-        pens: list[Penetrations],
+        u: dict[str, NDArray],
         touching: bool,
         released: NDArray[np.bool_] | None = None,
     ) -> tuple[ContactRows, int, float]:
@@ -194,8 +200,8 @@ class _Frame:
         ----------
         rows : ContactRows
             The current set.
-        pens : list of Penetrations
-            Gaps measured at the current displacements, one per pair.
+        u : dict of str to ndarray
+            Current displacements ``(N, 3)`` of every body.
         touching : bool
             Also take nodes within the tolerance outside (the first contact set).
         released : ndarray of bool, optional
@@ -215,7 +221,14 @@ class _Frame:
             rows = rows.select(~released)
         changed = 0
         depth = 0.0
-        for i, (pair, p) in enumerate(zip(self.pairs, pens, strict=True)):
+        t = time.perf_counter()
+        for i, pair in enumerate(self.pairs):
+            if i in self.mortar:
+                rows, n, d = self._mortar_rows(i, rows, dropped, u, touching)
+                changed += n
+                depth = max(depth, d)
+                continue
+            p = measure(pair, u, self.margin)
             if not p.nodes.size:
                 continue
             tol = self.tol(pair, p.nodes)
@@ -238,7 +251,30 @@ class _Frame:
             if hit.any():
                 rows = rows.extended(self.pairs, i, p.select(hit))
                 changed += int(hit.sum())
+        self.timings["geometry"] += time.perf_counter() - t
         return rows, changed, depth
+
+    def _mortar_rows(
+        self,
+        i: int,
+        rows: ContactRows,
+        dropped: ContactRows,
+        u: dict[str, NDArray],
+        touching: bool,
+    ) -> tuple[ContactRows, int, float]:
+        """New mortar rows of pair ``i``: weighted gaps closed or below the tolerance."""
+        pair, cand = self.pairs[i], self.mortar[i]
+        g = cand.gaps(u[pair.slave.name], u[pair.master.name])  # type: ignore[union-attr]
+        nodes = cand.rows.node
+        tol = self.tol(pair, nodes)
+        fresh = ~np.isin(nodes, rows.node[rows.pair == i]) & ~np.isin(
+            nodes, dropped.node[dropped.pair == i]
+        )
+        hit = fresh & ((g < tol) if touching else (g < -tol))
+        depth = float(np.max(-g, initial=0.0))
+        if hit.any():
+            rows = rows.joined(cand.rows.select(hit))
+        return rows, int(hit.sum()), depth
 
     def matrices(self, rows: ContactRows) -> dict:
         """Each body's part of the rows."""
@@ -360,7 +396,7 @@ def _record(
 
 
 def _key(rows: ContactRows) -> bytes:
-    k = np.column_stack([rows.keys, rows.facet])
+    k = np.column_stack([rows.keys, rows.m_nodes])
     return k[np.lexsort(k.T[::-1])].tobytes() if len(k) else b""
 
 
@@ -416,7 +452,7 @@ def _contact_space(frame: _Frame) -> FrameResult:
     st = frame.settings
     space = ContactSpace(frame.bodies)
     u = {b.name: np.zeros((b.mesh.n_points, 3)) for b in frame.bodies}
-    rows, _, _ = frame.new_rows(ContactRows(), frame.measure(u), touching=True)
+    rows, _, _ = frame.new_rows(ContactRows(), u, touching=True)
     history: list[IterationRecord] = []
     seen: set[bytes] = set()
     stop, converged = "iteration limit", False
@@ -439,7 +475,7 @@ def _contact_space(frame: _Frame) -> FrameResult:
         prev = flat
         scale = max(float(np.abs(lam).max()) if lam.size else 0.0, 1e-300)
         pulling = lam < -st.force_tolerance * scale
-        grown, added, depth = frame.new_rows(rows, frame.measure(u), False, pulling)
+        grown, added, depth = frame.new_rows(rows, u, False, pulling)
         supports = [
             np.linalg.norm(f)
             for b in frame.bodies
@@ -504,7 +540,7 @@ def _seed(frame: _Frame, dirichlet: str) -> FrameResult:
     }
     u = {b.name: np.zeros((b.mesh.n_points, 3)) for b in frame.bodies}
     # step 2 (first time): nodes penetrating or touching in the posed position
-    rows, _, _ = frame.new_rows(ContactRows(), frame.measure(u), touching=True)
+    rows, _, _ = frame.new_rows(ContactRows(), u, touching=True)
     history: list[IterationRecord] = []
     stop, converged = "iteration limit", False
     omega = 1.0 if st.relaxation == "none" else st.relaxation_factor
@@ -572,7 +608,7 @@ def _seed(frame: _Frame, dirichlet: str) -> FrameResult:
         u = {name: s.u.reshape(-1, 3) for name, s in states.items()}
         scale = max(float(np.abs(lam).max()) if lam.size else 0.0, 1e-300)
         pulling = lam < -st.force_tolerance * scale
-        grown, added, depth = frame.new_rows(rows, frame.measure(u), False, pulling)
+        grown, added, depth = frame.new_rows(rows, u, False, pulling)
         supports = {b.name: b.support_forces(states[b.name].reactions) for b in frame.bodies}
         over = frame.over_limit(supports)
         support = max(

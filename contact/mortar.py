@@ -108,9 +108,11 @@ class MortarCoupling:
         Slave surface nodes with a row (a nonzero overlap area), sorted, in the numbering
         of the slave points (the volume mesh's).
     normals : ndarray, shape (s, 3)
-        Unit nodal normals of the slave surface (area-weighted averages of its facet
-        normals), pointing from the master into the slave (minus the slave's outward
-        normal: the sense of the node-to-surface rows' normal).
+        Unit nodal normals of the slave surface: averages of its facets' normals weighted
+        by the row's overlap integrals ``int N_i dA`` over each facet (only the facets in
+        contact count: a node on the edge of a block's face keeps the face's normal),
+        pointing from the master into the slave (minus the slave's outward normal: the
+        sense of the node-to-surface rows' normal).
     d : scipy.sparse.csr_matrix, shape (s, n_slave_points)
         ``D_ij = int N_i^s N_j^s dA`` over the overlap (m^2).
     m : scipy.sparse.csr_matrix, shape (s, n_master_points)
@@ -390,18 +392,14 @@ def mortar_coupling(
     ns_pts, nm_pts = len(xs_all), len(xm_all)
     slaves = [_Facets.of(xs_all, b, "slave") for b in _blocks(slave_facets, "slave")]
     masters = [_Facets.of(xm_all, b, "master") for b in _blocks(master_facets, "master")]
-    # nodal normals and tributary areas over the whole slave surface
-    vsum = np.zeros((ns_pts, 3))
+    # tributary areas over the whole slave surface
     trib = np.zeros(ns_pts)
     for s in slaves:
         k = s.conn.shape[1]
-        for c in range(3):
-            vsum[:, c] += np.bincount(
-                s.conn.ravel(), np.repeat(s.vector_area[:, c], k), minlength=ns_pts
-            )
         trib += np.bincount(
             s.conn.ravel(), np.repeat(np.linalg.norm(s.vector_area, axis=1) / k, k), ns_pts
         )
+    ncov = np.zeros((ns_pts, 3))
     dr, dc, dv, mr, mc, mv = [], [], [], [], [], []
     for s in slaves:
         for m in masters:
@@ -412,6 +410,13 @@ def mortar_coupling(
                 cs, cm = s.conn[i], m.conn[j]
                 d, mm = _integrate(xs_all[cs], xm_all[cm], s, i, rule)
                 ks, km = cs.shape[1], cm.shape[1]
+                # the normal of a node: its facets' normals weighted by their overlap
+                # integrals int N_i dA, so that only the facets in contact count
+                w = d.sum(axis=2).ravel()
+                for c in range(3):
+                    ncov[:, c] += np.bincount(
+                        cs.ravel(), w * np.repeat(s.normal[i][:, c], ks), minlength=ns_pts
+                    )
                 dr.append(np.repeat(cs, ks, axis=1).ravel())
                 dc.append(np.tile(cs, (1, ks)).ravel())
                 dv.append(d.ravel())
@@ -431,7 +436,7 @@ def mortar_coupling(
     d_all, m_all = _csr(dr, dc, dv, ns_pts), _csr(mr, mc, mv, nm_pts)
     area_all = np.asarray(d_all.sum(axis=1)).ravel()
     nodes = np.flatnonzero((area_all > min_fraction * trib) & (trib > 0))
-    normals = -vsum[nodes] / np.linalg.norm(vsum[nodes], axis=1)[:, None]
+    normals = -ncov[nodes] / np.linalg.norm(ncov[nodes], axis=1)[:, None]
     d, m = d_all[nodes], m_all[nodes]
     gap0 = np.einsum("si,si->s", normals, d @ xs_all - m @ xm_all)
     return MortarCoupling(nodes.astype(np.int64), normals, d, m, gap0, area_all[nodes])
