@@ -11,4 +11,4 @@ from __future__ import annotations
 __all__ = ["BENCHMARKS"]
 
 #: Benchmark names runnable from the command line, in the order ``all`` runs them.
-BENCHMARKS = ("assembly", "linear_solve", "queries", "hertz", "posing")
+BENCHMARKS = ("assembly", "linear_solve", "queries", "hertz", "hertz_bodies", "posing")

@@ -7,7 +7,7 @@ from benchmarks.__main__ import main
 
 def test_benchmarks_quick(tmp_path):
     main(["all", "--quick", "--out", str(tmp_path)])
-    for name in ("assembly", "linear_solve", "queries", "hertz", "posing"):
+    for name in ("assembly", "linear_solve", "queries", "hertz", "hertz_bodies", "posing"):
         rows = list(csv.DictReader((tmp_path / f"{name}.csv").open()))
         assert rows, name
         assert (tmp_path / f"{name}.md").read_text().strip()
