@@ -178,6 +178,7 @@ class GraspRun:
             prescribed=prescribed,
             supports=self.bones,
             backend=self.scene.solver.linear_solver,  # type: ignore[attr-defined]
+            contact_faces=self.hand.skin_faces,  # type: ignore[union-attr]
         )
         self._hand_key = key
         self._pose = pose

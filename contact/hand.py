@@ -98,6 +98,38 @@ class Hand:
             raise KeyError(f"unknown bone {bone!r}; bones: {', '.join(names)}")
         return np.flatnonzero(self.bone_id == names.index(bone))
 
+    @cached_property
+    def skin_faces(self) -> fem.BoundaryFaces:
+        """The flesh's boundary faces on the skin: the only ones that can touch a ball.
+
+        The flesh's boundary also holds the bone holes and the joint cavities. A face is on
+        the skin when its centre lies within half the rig's smallest flesh thickness of the
+        skin surface the flesh was meshed from (bone holes lie a whole thickness away at
+        least); the faces found must close on themselves.
+
+        Raises
+        ------
+        fem.MeshError
+            If they do not (flesh and skin files that do not belong together).
+        """
+        from .surfacequery import TriangleSurface
+        from .surfaces import surface_arrays
+
+        bnd = self.flesh.boundary
+        tri = bnd.faces.get("triangle", np.zeros((0, 3), np.int64))
+        skin = TriangleSurface(*surface_arrays(self.skin), name="skin")
+        d = skin.closest(self.flesh.points[tri].mean(axis=1)).distance
+        on = d < 0.5 * self.skeleton.spec.min_flesh
+        found = TriangleSurface(self.flesh.points, tri[on], name="skin faces of the flesh")
+        if not found.is_closed:
+            raise MeshError(
+                f"hand {self.resolution}: the flesh's faces on the skin do not close "
+                f"({int(on.sum())} of {len(tri)} boundary faces): flesh and skin files differ"
+            )
+        return bnd.subset(
+            {k: (on if k == "triangle" else np.zeros(len(f), bool)) for k, f in bnd.faces.items()}
+        )
+
     @property
     def part_names(self) -> tuple[str, ...]:
         """Region names: region ``i`` of the flesh is part ``part_names[i]``."""

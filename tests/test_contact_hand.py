@@ -27,6 +27,7 @@ def hand_body():
         fem.LinearElastic(E_FLESH, 0.4),
         prescribed=fem.node_dofs(h.prescribed_nodes),
         supports=bones,
+        contact_faces=h.skin_faces,
     )
     # the ball's top touches the lowest skin node above its centre's footprint
     x, skin = h.flesh.points, body.contact_nodes

@@ -99,3 +99,17 @@ def test_load_hand_errors(tmp_path):
     (tmp_path / "rig.toml").write_text((HAND_DIR / "rig.toml").read_text())
     with pytest.raises(fem.MeshError, match=r"flesh_coarse\.vtu does not exist"):
         load_hand("coarse", tmp_path)
+
+
+def test_skin_faces_are_the_closed_outer_skin(hand):
+    from contact.surfacequery import TriangleSurface
+
+    faces = hand.skin_faces
+    tri = faces.faces["triangle"]
+    surface = TriangleSurface(hand.flesh.points, tri)
+    assert surface.is_closed
+    # it encloses the whole hand: the skin's volume, not a bone's or a cavity's
+    skin = enclosed_volume(*surface_arrays(hand.skin))
+    assert surface.volume == pytest.approx(skin, rel=0.02)
+    assert (hand.bone_id[tri] < 0).any(axis=1).all()  # no face lies on a bone
+    assert faces.n_faces < hand.flesh.boundary.n_faces
