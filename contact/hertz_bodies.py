@@ -454,8 +454,15 @@ class HertzBodiesCheck:
         return self.patch_other.peak_pressure / self.hertz.peak_pressure - 1.0
 
 
-def measure_scene(scene: HertzScene, result: FrameResult, edge_cells: float = 2.0) -> tuple:
-    """The two bodies' patches, Hertz for the top one's force, and the action-reaction gap."""
+def _measure(
+    scene: HertzScene, result: FrameResult, edge_cells: float
+) -> tuple[ContactPatch, ContactPatch, HertzSolution, float]:
+    """The two bodies' patches, Hertz for the top one's force, and the action-reaction gap.
+
+    :func:`contact.hertz.measure_contact_patch` reads only the nodal ``contact_force``
+    of its result: each body's is given as such, against a plane through the origin
+    whose normal points away from the body (the side its forces push it to).
+    """
     top, other = scene.bodies
     f_top = result.total_contact_force(top.name)
     f_other = result.total_contact_force(other.name)
@@ -510,5 +517,5 @@ def hertz_bodies_check(
     t = time.perf_counter()
     res = solve_frame(list(scene.bodies), list(scene.pairs), (), settings)
     secs = dict(scene.seconds, contact=time.perf_counter() - t)
-    patch, other, hz, ar = measure_scene(scene, res, edge_cells)
+    patch, other, hz, ar = _measure(scene, res, edge_cells)
     return HertzBodiesCheck(scene, res, patch, other, hz, ar, secs)
