@@ -134,7 +134,8 @@ class ContactSpace:
                 balance.append(-(phi.T @ body.loads))
         g = np.hstack(g_cols) if g_cols else np.zeros((m, 0))
         c = np.concatenate(balance) if balance else np.zeros(0)
-        lam, a = _saddle(w, g, rhs, c, [b.name for b in free])
+        scale = max((float(np.linalg.norm(b.loads)) for b in free), default=0.0)
+        lam, a = _saddle(w, g, rhs, c, [b.name for b in free], scale)
         states = {}
         k = 0
         for body in self.bodies:
@@ -151,11 +152,11 @@ class ContactSpace:
 
 
 def _saddle(
-    w: NDArray, g: NDArray, rhs: NDArray, c: NDArray, free: list[str]
+    w: NDArray, g: NDArray, rhs: NDArray, c: NDArray, free: list[str], load_scale: float
 ) -> tuple[NDArray, NDArray]:
     """Solve ``[[W, G], [G^T, 0]] [lam; a] = [rhs; c]`` (see :func:`fem.statics.solve_saddle`)."""
     try:
-        return solve_saddle(w, g, rhs, c)
+        return solve_saddle(w, g, rhs, c, load_scale)
     except fem.LoadError:
         raise ContactError(
             f"nothing holds {', '.join(free)}: the contacts do not hold it in every "

@@ -161,6 +161,10 @@ class _Frame:
             float(self.local[b.name].max()) for b in self.bodies
         )  # broad-phase margin: one element
         self.callback: Callable[[IterationRecord], None] | None = None
+        self._force = 0.0
+        self.broken = 0
+        self.renewed: dict[int, dict[int, int]] = {}
+        self._loads = max(float(np.linalg.norm(b.loads)) for b in self.bodies)
         self.extent = float(np.ptp(np.vstack([b.mesh.points for b in self.bodies]), axis=0).max())
         self.timings = {"geometry": 0.0, "contact solve": 0.0, "bodies": 0.0, "mortar": 0.0}
         t = time.perf_counter()
@@ -169,6 +173,41 @@ class _Frame:
             i: mortar_candidates(p, i, self.margin) for i, p in enumerate(self.pairs) if p.mortar
         }
         self.timings["mortar"] = time.perf_counter() - t
+
+    def slipping(self, states: dict[str, BodyState], broken: int) -> str:
+        """The stop reason when contacts in the set have lost their masters.
+
+        Frictionless contacts hold a free body only where their normals enclose it; where
+        they do not (a ball pushed towards the open side of a hand), the linear solve
+        slides it rigidly along the open direction until its linearised contacts
+        balance, so far that the contact nodes have left their facets. The frame then
+        stops: the body slips out.
+        """
+        moves = []
+        for b in self.bodies:
+            rigid = states[b.name].rigid
+            if b.solver.free_body and rigid.size:
+                move = (b.solver.modes[:, :3] @ rigid[:3]).reshape(-1, 3)[0]
+                moves.append((float(np.linalg.norm(move)), b.name, move))
+        how = ""
+        if moves:
+            dist, name, move = max(moves, key=lambda m: m[0])
+            d = move / max(dist, 1e-300)
+            how = f"{name} slid {dist * 1e3:.3g} mm along [{d[0]:.2f}, {d[1]:.2f}, {d[2]:.2f}]; "
+        return (
+            f"not held: {how}{broken} contact(s) left their facets (frictionless contacts "
+            "that do not enclose a body cannot hold it)"
+        )
+
+    def force_scale(self, lam: NDArray[np.float64]) -> float:
+        """The frame's force scale: the largest contact force met so far, or the loads.
+
+        Contacts pull when their force is below ``-force_tolerance`` times it: a contact
+        whose force is zero to round-off is not released (a free ball that nothing
+        presses would otherwise cycle between touching and not).
+        """
+        self._force = max(self._force, float(np.abs(lam).max(initial=0.0)))
+        return max(self._force, self._loads, 1e-300)
 
     def record(self, history: list[IterationRecord], rec: IterationRecord) -> None:
         """Append an iteration's record and tell the callback."""
@@ -216,6 +255,7 @@ class _Frame:
         depth : float
             Deepest penetration measured (m).
         """
+        self.broken = 0
         dropped = rows.select(released) if released is not None else ContactRows()
         if released is not None:
             rows = rows.select(~released)
@@ -234,6 +274,10 @@ class _Frame:
             tol = self.tol(pair, p.nodes)
             mine = rows.pair == i
             active = np.isin(p.nodes, rows.node[mine])
+            # a contact whose node has moved away from its master by half an element (or
+            # out of reach) no longer has a valid linearised row: the body slid off it
+            far = active & (p.gap > 0.5 * self.local[pair.slave.name][p.nodes])
+            self.broken += int(far.sum()) + int(mine.sum() - active.sum())
             fresh = ~active & ~np.isin(p.nodes, dropped.node[dropped.pair == i])
             depth = max(depth, float(np.max(-p.gap, initial=0.0)))
             hit = fresh & ((p.gap < tol) if touching else (p.gap < -tol))
@@ -245,6 +289,16 @@ class _Frame:
                 corner = p.facet[np.arange(p.nodes.size), p.weights.argmax(axis=1)]
                 hit &= ~(vertex & np.isin(corner, rows.node[rows.pair == j]))
             stale = active & (p.gap < -tol) & (not pair.rigid)
+            if stale.any():
+                # a node renewed twice already keeps its row: between two facets that meet
+                # at an edge, renewals would alternate for ever
+                where = np.flatnonzero(stale)
+                seen = self.renewed.setdefault(i, {})
+                for w in where:
+                    n = int(p.nodes[w])
+                    seen[n] = seen.get(n, 0) + 1
+                    if seen[n] > 2:
+                        stale[w] = False
             if stale.any():
                 rows = rows.select(~(mine & np.isin(rows.node, p.nodes[stale])))
                 hit |= stale
@@ -473,9 +527,13 @@ def _contact_space(frame: _Frame) -> FrameResult:
         flat = np.concatenate([states[b.name].u for b in frame.bodies])
         change = float(np.abs(flat - prev).max())
         prev = flat
-        scale = max(float(np.abs(lam).max()) if lam.size else 0.0, 1e-300)
+        scale = frame.force_scale(lam)
         pulling = lam < -st.force_tolerance * scale
         grown, added, depth = frame.new_rows(rows, u, False, pulling)
+        if frame.broken:
+            frame.record(history, _record(it, rows, 0, 0, change, depth, e, lam, frame, 1.0, 0.0))
+            stop = frame.slipping(states, frame.broken)
+            break
         supports = [
             np.linalg.norm(f)
             for b in frame.bodies
@@ -606,7 +664,7 @@ def _seed(frame: _Frame, dirichlet: str) -> FrameResult:
             )
             break
         u = {name: s.u.reshape(-1, 3) for name, s in states.items()}
-        scale = max(float(np.abs(lam).max()) if lam.size else 0.0, 1e-300)
+        scale = frame.force_scale(lam)
         pulling = lam < -st.force_tolerance * scale
         grown, added, depth = frame.new_rows(rows, u, False, pulling)
         supports = {b.name: b.support_forces(states[b.name].reactions) for b in frame.bodies}

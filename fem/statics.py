@@ -369,7 +369,7 @@ class StaticSolver:
             rhs = ef @ x0 - g
             if self.free_body:
                 phi = self.placing_modes
-                lam, a = _saddle(s, e_phi, rhs, phi.T @ f)
+                lam, a = _saddle(s, e_phi, rhs, phi.T @ f, float(np.linalg.norm(f)))
                 u[self.free] = self.apply_inverse(rf - ef.T @ lam) + phi @ a
                 rigid = np.zeros(6)
                 rigid[: a.size] = a
@@ -413,12 +413,16 @@ def _spd_solve(s: NDArray, rhs: NDArray) -> NDArray:
         ) from exc
 
 
-def _saddle(s: NDArray, e_phi: NDArray, rhs: NDArray, phi_f: NDArray) -> tuple[NDArray, NDArray]:
+def _saddle(
+    s: NDArray, e_phi: NDArray, rhs: NDArray, phi_f: NDArray, load_scale: float = 0.0
+) -> tuple[NDArray, NDArray]:
     """Solve ``[[S, -EP], [-EP^T, 0]] [lam; a] = [rhs; -P^T f]`` for a free body."""
-    return solve_saddle(s, -e_phi, rhs, -phi_f)
+    return solve_saddle(s, -e_phi, rhs, -phi_f, load_scale)
 
 
-def solve_saddle(w: NDArray, g: NDArray, rhs: NDArray, c: NDArray) -> tuple[NDArray, NDArray]:
+def solve_saddle(
+    w: NDArray, g: NDArray, rhs: NDArray, c: NDArray, load_scale: float = 0.0
+) -> tuple[NDArray, NDArray]:
     """Solve ``[[W, G], [G^T, 0]] [lam; a] = [rhs; c]``: constraint forces and rigid modes.
 
     ``W`` (m x m) is the compliance of the constraints, ``G`` (m x r) the constraints'
@@ -428,6 +432,9 @@ def solve_saddle(w: NDArray, g: NDArray, rhs: NDArray, c: NDArray) -> tuple[NDAr
     sideways) are left out with ``a = 0`` in them, once the loads are checked to be in
     balance in them. ``W`` is factored by Cholesky and the amplitudes solved from the
     small Schur complement ``G^T W^-1 G``, so that weakly held modes stay well posed.
+
+    ``load_scale`` is the size of the loads (a norm of the load vector): the balance in
+    the free modes is checked to ``1e-8`` of it (and of ``c``).
 
     Raises
     ------
@@ -443,7 +450,7 @@ def solve_saddle(w: NDArray, g: NDArray, rhs: NDArray, c: NDArray) -> tuple[NDAr
         if held.any():
             v1 = vt[held].T
         v0 = np.linalg.svd(v1.T)[2][v1.shape[1] :].T if v1.shape[1] else np.eye(r)
-        scale = max(float(np.abs(c).max(initial=0.0)), 1e-300)
+        scale = max(float(np.abs(c).max(initial=0.0)), load_scale, 1e-300)
         if v0.shape[1] and np.abs(v0.T @ c).max() > 1e-8 * scale:
             raise LoadError(
                 "the constraints do not hold the free body in every direction and the "
