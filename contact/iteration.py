@@ -44,7 +44,7 @@ from .geometry import Plane
 from .pairs import ContactPair, ContactRows, Penetrations, measure, mortar_candidates
 from .results import FrameResult, IterationRecord
 
-__all__ = ["ALGORITHMS", "RELAXATIONS", "ContactSettings", "solve_frame"]
+__all__ = ["ALGORITHMS", "CYCLE_RELEASE", "RELAXATIONS", "ContactSettings", "solve_frame"]
 
 log = logging.getLogger(__name__)
 
@@ -52,6 +52,9 @@ log = logging.getLogger(__name__)
 ALGORITHMS = ("contact-space", "seed")
 #: Relaxations of the seed loop.
 RELAXATIONS = ("none", "fixed", "aitken")
+#: Once a contact set repeats, contacts are released only when they pull by more than this
+#: fraction of the largest contact force (a second repetition stops the frame: "cycling").
+CYCLE_RELEASE = 1e-4
 
 
 @dataclass(frozen=True)
@@ -512,11 +515,18 @@ def _contact_space(frame: _Frame) -> FrameResult:
     stop, converged = "iteration limit", False
     prev = np.zeros(sum(b.mesh.n_dofs for b in frame.bodies))
     solved, lam, states = rows, np.zeros(0), {}
+    release = st.force_tolerance
     for it in range(1, st.max_iterations + 1):
         key = _key(rows)
         if key in seen:
-            stop = "cycling"
-            break
+            if release >= CYCLE_RELEASE:
+                stop = "cycling"
+                break
+            # a contact set met before: contacts that pull by round-off are released and
+            # taken again in turn; from now on only those that clearly pull are released
+            release = CYCLE_RELEASE
+            seen.clear()
+            log.debug("contact space: a contact set repeats; releasing above %g only", release)
         seen.add(key)
         t = time.perf_counter()
         e = frame.matrices(rows)
@@ -528,7 +538,7 @@ def _contact_space(frame: _Frame) -> FrameResult:
         change = float(np.abs(flat - prev).max())
         prev = flat
         scale = frame.force_scale(lam)
-        pulling = lam < -st.force_tolerance * scale
+        pulling = lam < -release * scale
         grown, added, depth = frame.new_rows(rows, u, False, pulling)
         if frame.broken:
             frame.record(history, _record(it, rows, 0, 0, change, depth, e, lam, frame, 1.0, 0.0))
