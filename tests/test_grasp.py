@@ -143,3 +143,59 @@ def test_help_and_version_from_a_subprocess():
         check=False,
     )
     assert run.returncode == 0 and "0.1" in run.stdout
+
+
+HAND = """
+[ball]
+radius = 0.01
+kind = "solid"
+element = "hex"
+mesh_size = 0.004
+center = [-0.007, 0.06, 0.0]
+material = {{ E = 1.0e6, nu = 0.3 }}
+
+[hand]
+resolution = "coarse"
+
+[[hand.keyframe]]
+time = 0.0
+angles = {{}}
+
+[frames]
+count = 1
+
+[output]
+directory = "{out}"
+pictures = false
+"""
+
+
+def test_a_ball_inside_a_bone_is_bad_input(tmp_path, capsys):
+    out = tmp_path / "results"
+    scene = tmp_path / "bone.toml"
+    scene.write_text(HAND.format(out=out.as_posix()))
+    assert main([str(scene), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "inside bone middle_metacarpal" in err and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_a_ball_mesh_file_with_nan_coordinates_is_bad_input(tmp_path, capsys):
+    import numpy as np
+
+    import fem
+
+    mesh = fem.ball_mesh(0.02, divisions=2, layers=1)
+    pts = mesh.points.copy()
+    pts[3, 1] = np.nan
+    bad = tmp_path / "ball.vtu"
+    import meshio
+
+    meshio.write(bad, meshio.Mesh(pts, [("hexahedron", mesh.cells["hexahedron"])]))
+    scene, out = write(tmp_path)
+    text = scene.read_text().replace("mesh_size = 0.003", f'mesh = "{bad.as_posix()}"')
+    scene.write_text(text)
+    assert main([str(scene), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "ball.vtu" in err and "\n" not in err.strip() and "Traceback" not in err
+    assert not out.exists()
