@@ -16,7 +16,8 @@ one *Dirichlet* body (the ball) and the others (the hand):
 5. solve the others under these forces (bones prescribed); the ball keeps step 3's
    state; relax the others' answer (none, a fixed factor, or Aitken's).
 
-It converges only where the ball is the stiffer side. ``"contact-space"`` (the default)
+It converges only where the ball is the softer side (the others then act as a mould stiffer
+than it). ``"contact-space"`` (the default)
 solves, for each contact set, the fixed point of steps 2 to 5 directly with the Delassus
 operator of both bodies (:class:`contact.delassus.ContactSpace`): the outer loop only adds
 penetrating nodes and releases pulling ones.
@@ -633,6 +634,14 @@ def _seed(frame: _Frame, dirichlet: str) -> FrameResult:
                 lam = sol.extra_reactions
         except fem.LoadError as exc:
             raise ContactError(f"nothing holds {ball.name}: {exc}") from None
+        except fem.SolverError as exc:
+            # rows from both directions prescribe the ball twice where the surfaces meet
+            # node to node: its own compliance on them is singular (the sum of both
+            # bodies', which the contact-space solve uses, is not)
+            stop = f"singular contact rows on {ball.name}: {exc}"
+            if lam.size != len(solved):  # nothing solved yet: report no contact
+                solved, lam = ContactRows(), np.zeros(0)
+            break
         frame.timings["contact solve"] += time.perf_counter() - t
         t = time.perf_counter()
         new_states = {ball.name: BodyState(sol.u, sol.reactions, sol.rigid)}
@@ -667,7 +676,7 @@ def _seed(frame: _Frame, dirichlet: str) -> FrameResult:
         solved = rows
         if not np.isfinite(size) or size > frame.extent:
             # a linear solution moving a node further than the scene is wide: the
-            # Dirichlet-Neumann iteration diverges (the ball is the softer side)
+            # Dirichlet-Neumann iteration diverges (the ball is the stiffer side)
             stop = "diverged"
             frame.record(
                 history, _record(it, rows, 0, 0, change, np.nan, e, lam, frame, omega, 0.0)
