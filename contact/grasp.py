@@ -37,6 +37,7 @@ from .geometry import Plane
 from .iteration import solve_frame
 from .pairs import ContactPair
 from .results import FrameResult, IterationRecord
+from .scene import Scene
 
 __all__ = ["GraspRun", "main", "run"]
 
@@ -66,7 +67,7 @@ class GraspRun:
         The loaded scene.
     """
 
-    scene: object
+    scene: Scene
     ball: Ball = field(init=False)
     _ball_body: ElasticBody | None = field(default=None, init=False)
     _ball_key: bytes = field(default=b"", init=False)
@@ -75,16 +76,16 @@ class GraspRun:
 
     def __post_init__(self) -> None:
         sc = self.scene
-        self.ball = make_ball(sc.ball)  # type: ignore[attr-defined]
+        self.ball = make_ball(sc.ball)
         self.hand = None
         self.poser = None
         self.keyframes = None
-        if sc.hand is not None:  # type: ignore[attr-defined]
+        if sc.hand is not None:
             from .hand import load_hand
             from .keyframes import Keyframes
             from .posing import HandPoser
 
-            hs = sc.hand  # type: ignore[attr-defined]
+            hs = sc.hand
             self.hand = load_hand(hs.resolution, hs.directory)
             self.poser = HandPoser(self.hand)
             self.keyframes = Keyframes(self.hand.skeleton, list(hs.keyframes))
@@ -101,7 +102,7 @@ class GraspRun:
         """The hand's angles at time ``t``: keyframes, then automatic flexion."""
         assert self.keyframes is not None and self.hand is not None
         angles = self.keyframes.pose(t)
-        for af in self.scene.hand.auto_flexion:  # type: ignore[attr-defined]
+        for af in self.scene.hand.auto_flexion:
             if af.times is not None and not any(abs(t - s) <= 1e-12 for s in af.times):
                 continue
             from .autoflex import auto_flex, sphere_distance
@@ -122,7 +123,7 @@ class GraspRun:
 
     def ball_transform(self, t: float) -> NDArray[np.float64]:
         """Rigid placement of the ball at ``t`` from its scene position (4x4)."""
-        follow = self.scene.follow  # type: ignore[attr-defined]
+        follow = self.scene.follow
         if follow is None or self.hand is None:
             return np.eye(4)
         from .objects import ObjectAssociation
@@ -142,7 +143,7 @@ class GraspRun:
         if self._ball_body is None or key != self._ball_key:
             mesh = self._placed_mesh(x)
             loads = self.ball.loads.reshape(-1, 3) @ tf[:3, :3].T
-            g = self.scene.gravity  # type: ignore[attr-defined]
+            g = self.scene.gravity
             if g is not None:
                 loads = loads + fem.gravity_load(mesh, self.ball.material, g).reshape(-1, 3)
             self._ball_body = ElasticBody(
@@ -151,7 +152,7 @@ class GraspRun:
                 self.ball.material,
                 loads=loads.ravel(),
                 contact_faces=self.ball.outer,
-                backend=self.scene.solver.linear_solver,  # type: ignore[attr-defined]
+                backend=self.scene.solver.linear_solver,
             )
             self._ball_key = key
             return self._ball_body
@@ -177,7 +178,7 @@ class GraspRun:
             self.flesh,
             prescribed=prescribed,
             supports=self.bones,
-            backend=self.scene.solver.linear_solver,  # type: ignore[attr-defined]
+            backend=self.scene.solver.linear_solver,
             contact_faces=self.hand.skin_faces,  # type: ignore[union-attr]
         )
         self._hand_key = key
@@ -224,13 +225,10 @@ class GraspRun:
             pairs += [ContactPair(ball, hand), ContactPair(hand, ball)]
             extra["angles"] = angles
             extra["min_tet_quality"] = float(self._pose.min_quality)
-        planes = [
-            Plane(p.point, p.normal, motion=p.offset(t), name=p.name)
-            for p in sc.planes  # type: ignore[attr-defined]
-        ]
+        planes = [Plane(p.point, p.normal, motion=p.offset(t), name=p.name) for p in sc.planes]
         pairs = [ContactPair(ball, p) for p in planes] + pairs
         setup = time.perf_counter() - t0
-        settings = sc.solver.settings(self.limits)  # type: ignore[attr-defined]
+        settings = sc.solver.settings(self.limits)
         result = solve_frame(bodies, pairs, planes, settings, callback=callback)
         result.timings["setup"] = setup
         return result, extra, planes, bodies
