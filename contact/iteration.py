@@ -284,7 +284,7 @@ class _Frame:
             self.broken += int(far.sum()) + int(mine.sum() - active.sum())
             fresh = ~active & ~np.isin(p.nodes, dropped.node[dropped.pair == i])
             depth = max(depth, float(np.max(-p.gap, initial=0.0)))
-            hit = fresh & ((p.gap < tol) if touching else (p.gap < -tol))
+            hit = fresh & (_first(p.gap, tol) if touching else (p.gap < -tol))
             j = self.reverse[i]
             if j >= 0 and hit.any():
                 # node on node: a slave node whose closest point is a master vertex that
@@ -328,7 +328,7 @@ class _Frame:
         fresh = ~np.isin(nodes, rows.node[rows.pair == i]) & ~np.isin(
             nodes, dropped.node[dropped.pair == i]
         )
-        hit = fresh & ((g < tol) if touching else (g < -tol))
+        hit = fresh & (_first(g, tol) if touching else (g < -tol))
         depth = float(np.max(-g, initial=0.0))
         if hit.any():
             rows = rows.joined(cand.rows.select(hit))
@@ -412,6 +412,22 @@ class _Frame:
             penetration_ratio=ratio,
             timings=dict(self.timings),
         )
+
+
+def _first(gap: NDArray[np.float64], tol: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """The first contact set of a pair: nodes deeper than half its deepest overlap.
+
+    Where the bodies overlap (a posed hand in a ball, a plate moved into it), taking every
+    overlapping node holds about twice the final patch (for two spheres the overlap radius
+    is sqrt(2) times Hertz's contact radius, at which the overlap is half the deepest): the
+    outer ones are released ring by ring, and each costs back-solves. Half the deepest
+    overlap is where Hertz's patch ends; the updates add what is missing. Where nothing
+    overlaps by more than the tolerance, the touching nodes are taken.
+    """
+    deepest = float(np.max(-gap, initial=0.0))
+    if deepest <= float(np.max(tol, initial=0.0)):
+        return gap < tol
+    return gap < -0.5 * deepest
 
 
 def _limit_reason(over: dict[str, tuple[float, float]]) -> str:
