@@ -167,7 +167,8 @@ class FleshRelaxer:
         cof = np.stack([np.cross(f1, f2), np.cross(f2, f0), np.cross(f0, f1)], axis=2)
         j = np.einsum("ij,ij->i", f0, cof[:, :, 0])
         r = np.sqrt(j * j + 4.0 * self.delta**2)
-        h = 0.5 * (j + r)
+        # h = (j + r) / 2 without cancellation where j << 0 (inverted): (j + r)(r - j) = 4 d^2
+        h = np.where(j >= 0.0, 0.5 * (j + r), 2.0 * self.delta**2 / (r - j))
         nf = np.einsum("ijk,ijk->i", f, f)
         h23 = h ** (-2.0 / 3.0)
         e = float((vol * (nf * h23 / 3.0 + 0.5 * self.kappa * (h + 1.0 / h))).sum())
