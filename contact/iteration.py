@@ -31,7 +31,7 @@ import logging
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -338,6 +338,10 @@ class _Frame:
         """Each body's part of the rows."""
         return rows.matrices(self.pairs, self.bodies)
 
+    def supports(self, states: dict[str, BodyState]) -> dict[str, dict[str, NDArray]]:
+        """Force on every support group (bone) of every body, from the bodies' reactions."""
+        return {b.name: b.support_forces(states[b.name].reactions) for b in self.bodies}
+
     def over_limit(self, supports: dict[str, dict[str, NDArray]]) -> dict[str, tuple[float, float]]:
         """Support groups whose force magnitude passes its limit."""
         out = {}
@@ -453,7 +457,7 @@ def _record(
     lam: NDArray[np.float64],
     frame: _Frame,
     omega: float,
-    support: float,
+    support: float = 0.0,
 ) -> IterationRecord:
     return IterationRecord(
         iteration=it,
@@ -467,6 +471,12 @@ def _record(
         relaxation=omega,
         max_support_force=support,
     )
+
+
+def _with_support(rec: IterationRecord, supports: dict[str, dict[str, NDArray]]) -> IterationRecord:
+    """The record with the largest support force magnitude of ``supports``."""
+    largest = max((np.linalg.norm(f) for s in supports.values() for f in s.values()), default=0.0)
+    return replace(rec, max_support_force=float(largest))
 
 
 def _key(rows: ContactRows) -> bytes:
@@ -561,27 +571,9 @@ def _contact_space(frame: _Frame) -> FrameResult:
             frame.record(history, _record(it, rows, 0, 0, change, depth, e, lam, frame, 1.0, 0.0))
             stop = frame.slipping(states, frame.broken)
             break
-        supports = [
-            np.linalg.norm(f)
-            for b in frame.bodies
-            for f in b.support_forces(states[b.name].reactions).values()
-        ]
-        frame.record(
-            history,
-            _record(
-                it,
-                rows,
-                added,
-                int(pulling.sum()),
-                change,
-                depth,
-                e,
-                lam,
-                frame,
-                1.0,
-                float(max(supports, default=0.0)),
-            ),
-        )
+        supports = frame.supports(states)
+        rec = _record(it, rows, added, int(pulling.sum()), change, depth, e, lam, frame, 1.0)
+        frame.record(history, _with_support(rec, supports))
         log.debug(
             "contact space: iteration %d, %d contacts, +%d -%d",
             it,
@@ -702,27 +694,10 @@ def _seed(frame: _Frame, dirichlet: str) -> FrameResult:
         scale = frame.force_scale(lam)
         pulling = lam < -st.force_tolerance * scale
         grown, added, depth = frame.new_rows(rows, u, False, pulling)
-        supports = {b.name: b.support_forces(states[b.name].reactions) for b in frame.bodies}
+        supports = frame.supports(states)
         over = frame.over_limit(supports)
-        support = max(
-            (np.linalg.norm(f) for s in supports.values() for f in s.values()), default=0.0
-        )
-        frame.record(
-            history,
-            _record(
-                it,
-                rows,
-                added,
-                int(pulling.sum()),
-                change,
-                depth,
-                e,
-                lam,
-                frame,
-                omega,
-                float(support),
-            ),
-        )
+        rec = _record(it, rows, added, int(pulling.sum()), change, depth, e, lam, frame, omega)
+        frame.record(history, _with_support(rec, supports))
         log.debug("seed: iteration %d, %d contacts, change %.3g", it, len(rows), change)
         if over:
             stop = _limit_reason(over)
