@@ -49,7 +49,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 import fem
-from fem.generators import graded_ball_mesh, graded_spacing
+from fem.generators import graded_ball_mesh, graded_spacing, grid_mesh
 
 from .body import ElasticBody
 from .errors import ContactError
@@ -155,26 +155,7 @@ def graded_box_mesh(
         axes.append(
             length * graded_spacing(fine_size / length, fe / length, coarse / length, growth)
         )
-    xs, ys, zs = axes[0], axes[1], -axes[2][::-1]
-    z, y, x = np.meshgrid(zs, ys, xs, indexing="ij")
-    pts = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
-    nx, ny, nz = len(xs) - 1, len(ys) - 1, len(zs) - 1
-    idx = np.arange(len(pts)).reshape(nz + 1, ny + 1, nx + 1)
-    a = idx
-    hexes = np.stack(
-        [
-            a[:-1, :-1, :-1],
-            a[:-1, :-1, 1:],
-            a[:-1, 1:, 1:],
-            a[:-1, 1:, :-1],
-            a[1:, :-1, :-1],
-            a[1:, :-1, 1:],
-            a[1:, 1:, 1:],
-            a[1:, 1:, :-1],
-        ],
-        axis=-1,
-    ).reshape(-1, 8)
-    return fem.Mesh(pts, {"hexahedron": hexes})
+    return grid_mesh(axes[0], axes[1], -axes[2][::-1])
 
 
 def hemisphere_mesh(

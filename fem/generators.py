@@ -29,6 +29,7 @@ __all__ = [
     "box_mesh",
     "graded_ball_mesh",
     "graded_spacing",
+    "grid_mesh",
     "hex_to_tet",
     "merge_points",
     "node_dofs",
@@ -95,20 +96,43 @@ def box_mesh(
         raise MeshError(f"box lengths must be 3 positive numbers, got {ln.tolist()}")
     if nd.shape != (3,) or not np.issubdtype(nd.dtype, np.integer) or (nd < 1).any():
         raise MeshError(f"box divisions must be 3 positive integers, got {nd.tolist()}")
-    nx, ny, nz = (int(v) for v in nd)
     o = np.asarray(origin, dtype=float)
     xs = [np.linspace(o[d], o[d] + ln[d], int(nd[d]) + 1) for d in range(3)]
-    z, y, x = np.meshgrid(xs[2], xs[1], xs[0], indexing="ij")
-    pts = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
-    hexes = _grid_hexes(_grid_index(nx, ny, nz))
     if element == "hexahedron":
-        return Mesh(pts, {"hexahedron": hexes})
+        return grid_mesh(*xs)
+    pts, hexes = _grid(*xs)
     if element == "wedge":
         w = np.concatenate([hexes[:, [0, 1, 2, 4, 5, 6]], hexes[:, [0, 2, 3, 4, 6, 7]]])
         return Mesh(pts, {"wedge": w})
     if element == "tetra":
         return Mesh(pts, {"tetra": _orient_tets(pts, hexes[:, _KUHN].reshape(-1, 4))})
     raise MeshError(f"element must be hexahedron, wedge or tetra, got {element!r}")
+
+
+def _grid(
+    xs: ArrayLike, ys: ArrayLike, zs: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """Points and hexahedra (VTK order) of the tensor grid of three coordinate lists."""
+    xs, ys, zs = (np.asarray(v, dtype=float) for v in (xs, ys, zs))
+    z, y, x = np.meshgrid(zs, ys, xs, indexing="ij")
+    pts = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
+    return pts, _grid_hexes(_grid_index(len(xs) - 1, len(ys) - 1, len(zs) - 1))
+
+
+def grid_mesh(xs: ArrayLike, ys: ArrayLike, zs: ArrayLike) -> Mesh:
+    """Bricks on the tensor grid of three increasing coordinate lists (e.g. graded ones).
+
+    Parameters
+    ----------
+    xs, ys, zs : array_like
+        Node coordinates along x, y and z (m), strictly increasing, two or more each.
+    """
+    for name, v in (("xs", xs), ("ys", ys), ("zs", zs)):
+        a = np.asarray(v, dtype=float)
+        if a.ndim != 1 or a.size < 2 or not (np.diff(a) > 0).all():
+            raise MeshError(f"grid {name} must be 2 or more increasing numbers, got {a.tolist()}")
+    pts, hexes = _grid(xs, ys, zs)
+    return Mesh(pts, {"hexahedron": hexes})
 
 
 def _orient_tets(pts: NDArray, tets: NDArray[np.int64]) -> NDArray[np.int64]:
