@@ -8,6 +8,7 @@ definite matrices, multithreaded, METIS ordering); the default where it is insta
 
 from __future__ import annotations
 
+import ctypes
 import glob
 import importlib.util
 import logging
@@ -22,7 +23,7 @@ from numpy.typing import NDArray
 
 from .errors import SolverError
 
-__all__ = ["BACKENDS", "Factorization", "available_backends", "factorize"]
+__all__ = ["BACKENDS", "Factorization", "available_backends", "factorize", "resolve_backend"]
 
 log = logging.getLogger(__name__)
 
@@ -32,6 +33,8 @@ class Factorization(Protocol):
 
     n: int
     backend: str
+    #: DOFs whose partial solves :meth:`solve_marked` serves (empty: none).
+    marked: NDArray[np.int64]
 
     def solve(self, b: NDArray[np.float64]) -> NDArray[np.float64]:
         """Solve ``A x = b`` for ``b`` of shape ``(n,)`` or ``(n, k)``."""
@@ -39,11 +42,17 @@ class Factorization(Protocol):
 
 
 class _Pardiso:
-    """MKL PARDISO, real symmetric positive definite (mtype 2), upper triangle stored."""
+    """MKL PARDISO, real symmetric positive definite (mtype 2), upper triangle stored.
+
+    ``marked`` DOFs (optional) are ordered last by the reordering, so that a right-hand
+    side nonzero only on them whose solution is wanted only on them is a partial solve
+    (``iparm[30] = 1``) through the trailing block of the factor: its cost grows with
+    the square of the marked count, not with the factor's size (see :meth:`solve_marked`).
+    """
 
     backend = "pardiso"
 
-    def __init__(self, a: sp.csr_matrix) -> None:
+    def __init__(self, a: sp.csr_matrix, marked: NDArray[np.int64] | None = None) -> None:
         import pypardiso
 
         self.n = a.shape[0]
@@ -52,22 +61,86 @@ class _Pardiso:
         if not np.diff(self._a.indptr).all():
             row = int(np.flatnonzero(np.diff(self._a.indptr) == 0)[0])
             raise SolverError(f"matrix is singular: row {row} is empty (an unconnected DOF?)")
+        # one-based CSR index arrays for MKL, made once (pypardiso remakes them every call)
+        self._ia = (self._a.indptr + 1).astype(np.int32)
+        self._ja = (self._a.indices + 1).astype(np.int32)
         self._s = _new_pardiso(pypardiso)
-        self._s.set_phase(12)
+        iparm = self._s.iparm
+        iparm[:] = 0
+        iparm[0] = 1  # the values below, not MKL's defaults
+        iparm[1] = 2  # METIS nested dissection
+        iparm[17] = -1  # report the factor's nonzeros
+        iparm[18] = -1  # and its Gflop
+        self.marked = np.zeros(0, np.int64) if marked is None else np.unique(marked)
+        self._mask = np.zeros(self.n, dtype=np.int32)
+        if self.marked.size:
+            self._mask[self.marked] = 1
+            iparm[30] = 1
+        perm = self._mask.copy()  # the reordering overwrites it
         try:
-            self._s._call_pardiso(self._a, np.zeros((self.n, 1)))
+            self._call(12, np.zeros(self.n), np.zeros(self.n), perm)
         except pypardiso.pardiso_wrapper.PyPardisoError as exc:
             raise SolverError(
                 f"PARDISO could not factor the matrix ({exc}): it is singular or not positive "
                 "definite; is the body free to move? prescribe displacements that hold it, "
                 "or solve it as a free body"
             ) from exc
-        self._s.set_phase(33)
+        self.factor_nnz = int(iparm[17])
+
+    def _call(self, phase: int, b: NDArray, x: NDArray, perm: NDArray[np.int32]) -> None:
+        import pypardiso
+
+        s = self._s
+        err = ctypes.c_int32(0)
+        i32 = ctypes.POINTER(ctypes.c_int32)
+        f64 = ctypes.POINTER(ctypes.c_double)
+        nrhs = 1 if b.ndim == 1 else b.shape[1]
+        s._mkl_pardiso(
+            s.pt.ctypes.data_as(ctypes.POINTER(s._pt_type[0])),
+            ctypes.byref(ctypes.c_int32(1)),  # maxfct
+            ctypes.byref(ctypes.c_int32(1)),  # mnum
+            ctypes.byref(ctypes.c_int32(2)),  # mtype: real SPD
+            ctypes.byref(ctypes.c_int32(phase)),
+            ctypes.byref(ctypes.c_int32(self.n)),
+            self._a.data.ctypes.data_as(f64),
+            self._ia.ctypes.data_as(i32),
+            self._ja.ctypes.data_as(i32),
+            perm.ctypes.data_as(i32),
+            ctypes.byref(ctypes.c_int32(nrhs)),
+            s.iparm.ctypes.data_as(i32),
+            ctypes.byref(ctypes.c_int32(0)),  # no messages
+            b.ctypes.data_as(f64),
+            x.ctypes.data_as(f64),
+            ctypes.byref(err),
+        )
+        if err.value != 0:
+            raise pypardiso.pardiso_wrapper.PyPardisoError(err.value)
 
     def solve(self, b: NDArray[np.float64]) -> NDArray[np.float64]:
         b = np.asfortranarray(b, dtype=np.float64)
-        x = self._s._call_pardiso(self._a, b)
-        return x
+        x = np.zeros_like(b, order="F")
+        self._s.iparm[30] = 0
+        self._call(33, b, x, self._mask)
+        return np.ascontiguousarray(x)
+
+    def solve_marked(self, b: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The solution on the marked DOFs of a right-hand side nonzero only on them.
+
+        ``b`` has shape ``(m,)`` or ``(m, k)``, one row per marked DOF (in the sorted
+        order of :attr:`marked`); so has the result.
+        """
+        b = np.asarray(b, dtype=np.float64)
+        k = 1 if b.ndim == 1 else b.shape[1]
+        full = np.zeros((self.n, k), order="F")
+        full[self.marked] = b.reshape(self.marked.size, k)
+        x = np.zeros_like(full, order="F")
+        self._s.iparm[30] = 1
+        try:
+            self._call(33, full, x, self._mask)
+        finally:
+            self._s.iparm[30] = 0
+        out = x[self.marked]
+        return out[:, 0] if b.ndim == 1 else out
 
     def __del__(self) -> None:
         s = getattr(self, "_s", None)
@@ -95,6 +168,7 @@ class _SuperLU:
     """scipy's SuperLU with a symmetric ordering."""
 
     backend = "superlu"
+    marked = np.zeros(0, np.int64)
 
     def __init__(self, a: sp.csr_matrix) -> None:
         self.n = a.shape[0]
@@ -158,7 +232,29 @@ def available_backends() -> list[str]:
     return out
 
 
-def factorize(a: sp.spmatrix, backend: str = "auto") -> Factorization:
+def resolve_backend(backend: str = "auto") -> str:
+    """The backend ``backend`` names (``"auto"``: the first available).
+
+    Raises
+    ------
+    SolverError
+        Unknown or unavailable backend.
+    """
+    names = available_backends()
+    if backend == "auto":
+        backend = names[0]
+    if backend not in BACKENDS:
+        raise SolverError(
+            f"unknown linear solver {backend!r}; choose from auto, {', '.join(BACKENDS)}"
+        )
+    if backend not in names:
+        raise SolverError(f"linear solver {backend!r} is not available here; available: {names}")
+    return backend
+
+
+def factorize(
+    a: sp.spmatrix, backend: str = "auto", marked: NDArray[np.int64] | None = None
+) -> Factorization:
     """Factor a sparse symmetric positive definite matrix.
 
     Parameters
@@ -167,6 +263,10 @@ def factorize(a: sp.spmatrix, backend: str = "auto") -> Factorization:
         Symmetric positive definite.
     backend : {"auto", "pardiso", "superlu"}
         Which solver; ``"auto"`` takes the first available in :func:`available_backends`.
+    marked : array_like of int, optional
+        Rows whose partial solves are wanted (``solve_marked``: right-hand sides and
+        solutions on them only); PARDISO orders them last. Ignored by SuperLU (its
+        ``marked`` stays empty).
 
     Returns
     -------
@@ -180,19 +280,13 @@ def factorize(a: sp.spmatrix, backend: str = "auto") -> Factorization:
     """
     if a.shape[0] != a.shape[1]:
         raise SolverError(f"matrix must be square, got shape {a.shape}")
-    names = available_backends()
-    if backend == "auto":
-        backend = names[0]
-    if backend not in BACKENDS:
-        raise SolverError(
-            f"unknown linear solver {backend!r}; choose from auto, {', '.join(BACKENDS)}"
-        )
-    if backend not in names:
-        raise SolverError(f"linear solver {backend!r} is not available here; available: {names}")
+    backend = resolve_backend(backend)
     a = sp.csr_matrix(a, dtype=np.float64)
     if a.shape[0] == 0:
         return _Empty()
     log.debug("factoring %d x %d matrix (%d nonzeros) with %s", *a.shape, a.nnz, backend)
+    if backend == "pardiso" and marked is not None and np.size(marked):
+        return _Pardiso(a, np.asarray(marked, dtype=np.int64))
     return BACKENDS[backend](a)
 
 
@@ -201,6 +295,7 @@ class _Empty:
 
     n = 0
     backend = "none"
+    marked = np.zeros(0, np.int64)
 
     def solve(self, b: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.zeros_like(np.asarray(b, dtype=np.float64))

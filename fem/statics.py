@@ -19,6 +19,7 @@ reactions vanish for a balanced load) and the rigid part of the result projected
 from __future__ import annotations
 
 import logging
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,7 +28,7 @@ import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import LoadError, SolverError
-from .linsolve import factorize
+from .linsolve import Factorization, factorize, resolve_backend
 
 __all__ = [
     "StaticSolution",
@@ -41,6 +42,8 @@ log = logging.getLogger(__name__)
 
 #: Columns of back-solves done at once when building a Schur complement.
 BLOCK = 256
+#: Marked DOFs at most (:meth:`StaticSolver.mark`): the factor's dense trailing block.
+MARK_LIMIT = 2400
 #: Constraint rows whose mutual compliance is kept (a dense square of this size at most).
 ROW_CACHE = 8192
 #: Rigid modes whose singular value in the constraint matrix is below this fraction of the
@@ -141,6 +144,16 @@ class StaticSolver:
         not resolved). Frictionless contact on a ball cannot turn it: its spin is held
         only by discretisation effects, which a linear solve turns into large spurious
         rotations.
+    lazy : bool
+        Factor on first use (or :meth:`factorize`) instead of now, so that the DOFs
+        where constraints will act can be marked first (:meth:`mark`).
+
+    Notes
+    -----
+    Marked DOFs (:meth:`mark`) are ordered last by the factorisation (PARDISO), and the
+    compliance of constraint rows on them comes from partial solves through the trailing
+    block of the factor: for a contact zone of a few hundred nodes, each row costs a
+    small fraction of a back-solve.
 
     Examples
     --------
@@ -162,6 +175,7 @@ class StaticSolver:
         points: ArrayLike | None = None,
         backend: str = "auto",
         hold_rotation: bool = False,
+        lazy: bool = False,
     ) -> None:
         k = sp.csr_matrix(stiffness, dtype=np.float64)
         n = k.shape[0]
@@ -195,7 +209,10 @@ class StaticSolver:
             keep = np.ones(n, dtype=bool)
             keep[self._support] = False
             self._inner = np.flatnonzero(keep)
-            self._fact = factorize(k[self._inner][:, self._inner], backend)
+            self._to_factor = k[self._inner][:, self._inner]
+            # row of the factored matrix of each free DOF (-1: a support DOF)
+            self._frow = np.full(n, -1, dtype=np.int64)
+            self._frow[self._inner] = np.arange(self._inner.size)
         else:
             self.modes = np.zeros((n, 0))
             self.placing_modes = self.modes
@@ -203,10 +220,80 @@ class StaticSolver:
             self._k11 = k_free[:, self.free]
             self._k12 = k_free[:, pres]
             self._k_pres = k[pres]  # rows K21 | K22 of equation (8)
-            self._fact = factorize(self._k11, backend)
-        self.backend = self._fact.backend
+            self._to_factor = self._k11
+            self._frow = np.arange(self.free.size)
+        self.backend = resolve_backend(backend)
         self.n_back_solves = 0
+        self.n_partial_solves = 0
+        self.n_factorizations = 0
+        self.factor_time = 0.0
+        self._factorization: Factorization | None = None
+        self._marks = np.zeros(0, np.int64)
+        self._jphi: NDArray[np.float64] | None = None
         self._reset_rows()
+        if not lazy:
+            self.factorize()
+
+    # --- the factorisation ------------------------------------------------------------
+
+    def factorize(self) -> StaticSolver:
+        """Factor now (with the DOFs marked so far) if not yet done; return self."""
+        if self._factorization is None:
+            t = time.perf_counter()
+            self._factorization = factorize(self._to_factor, self.backend, marked=self._marks)
+            self.factor_time += time.perf_counter() - t
+            self.n_factorizations += 1
+            self._jphi = None
+            self._reset_rows()
+        return self
+
+    @property
+    def _fact(self) -> Factorization:
+        return self.factorize()._factorization  # type: ignore[return-value]
+
+    @property
+    def factored(self) -> bool:
+        """Whether the stiffness is factored (a lazy solver is not until first used)."""
+        return self._factorization is not None
+
+    def mark(self, dofs: ArrayLike, limit: int = MARK_LIMIT) -> bool:
+        """Mark DOFs where constraint rows will act, for partial solves on them.
+
+        Before the factorisation, free; after it, DOFs not marked yet cost a new
+        factorisation with all marked. Prescribed DOFs and a free body's six support
+        DOFs are skipped. Nothing is marked when the total would pass ``limit`` (the
+        trailing block of the factor grows with its square) or when the backend has no
+        partial solves.
+
+        Returns
+        -------
+        bool
+            Whether the marked DOFs cover ``dofs``.
+        """
+        d = np.asarray(dofs, dtype=np.int64).ravel()
+        if d.size and (d.min() < 0 or d.max() >= self.n):
+            raise SolverError(f"marked DOFs must lie in 0..{self.n - 1}")
+        rows = self._frow_of(d)
+        rows = np.unique(rows[rows >= 0])
+        union = np.union1d(self._marks, rows)
+        if self.backend != "pardiso" or union.size > min(limit, self._to_factor.shape[0] // 2):
+            return False
+        if union.size == self._marks.size:
+            return True
+        self._marks = union
+        if self._factorization is not None:
+            log.debug("refactoring with %d marked DOFs", union.size)
+            self._factorization = None
+            self.factorize()
+        return True
+
+    def _frow_of(self, dofs: NDArray[np.int64]) -> NDArray[np.int64]:
+        """Rows of the factored matrix of global DOFs (-1: prescribed or support)."""
+        pos = self._pos[dofs]
+        out = np.full(dofs.shape, -1, dtype=np.int64)
+        ok = pos >= 0
+        out[ok] = self._frow[pos[ok]]
+        return out
 
     # --- the inverse on the free DOFs ----------------------------------------------
 
@@ -253,12 +340,14 @@ class StaticSolver:
         return self._schur_of(e)[0]
 
     def _schur_of(self, e: sp.csr_matrix) -> tuple[NDArray, NDArray | None]:
-        """Compliance of constraint rows, with back-solves only for rows not seen before.
+        """Compliance of constraint rows, with solves only for rows not seen before.
 
         The compliance between two rows depends on those rows alone, so it is kept for
         every row met so far: a contact set that gains or loses a few nodes costs a few
-        back-solves, not one per contact DOF.
+        solves, not one per contact DOF. Rows on marked DOFs only take partial solves
+        (:meth:`mark`); the first row off them turns the kept rows to full back-solves.
         """
+        self.factorize()
         ef = sp.csr_matrix(e[:, self.free])
         ef.sort_indices()
         m = ef.shape[0]
@@ -269,38 +358,108 @@ class StaticSolver:
         ]
         new = list(dict.fromkeys(k for k in keys if k not in self._row_index))
         if new:
-            if len(self._row_index) + len(new) > ROW_CACHE:
-                self._reset_rows()
-                new = list(dict.fromkeys(keys))
             first = {k: i for i, k in reversed(list(enumerate(keys)))}
             rows = ef[[first[k] for k in new]]
-            old = len(self._row_index)
-            self._rows = rows if self._rows is None else sp.vstack([self._rows, rows]).tocsr()
-            total = old + len(new)
-            if self._gram.shape[0] < total:
-                grown = np.zeros((max(total, 2 * self._gram.shape[0]),) * 2)
-                grown[:old, :old] = self._gram[:old, :old]
-                self._gram = grown
-            rows_t = rows.T.tocsc()
-            for j in range(0, len(new), BLOCK):
-                z = self.apply_inverse(rows_t[:, j : j + BLOCK].toarray())
-                self.n_back_solves += z.shape[1]
-                cross = self._rows @ z  # (total, block)
-                cols = slice(old + j, old + j + z.shape[1])
-                self._gram[:total, cols] = cross
-                self._gram[cols, :total] = cross.T
-            for i, k in enumerate(new):
-                self._row_index[k] = old + i
+            rows_m = self._on_marks(rows) if self._partial else None
+            if self._partial and rows_m is None and self._row_index:
+                # a row off the marked DOFs: every kept row is solved again in full
+                log.debug("contact rows left the marked DOFs: full back-solves from now")
+                self._reset_rows(partial=False)
+                new = list(dict.fromkeys(keys))
+                rows = ef[[first[k] for k in new]]
+            elif len(self._row_index) + len(new) > ROW_CACHE:
+                self._reset_rows(partial=self._partial)
+                new = list(dict.fromkeys(keys))
+                rows = ef[[first[k] for k in new]]
+                rows_m = self._on_marks(rows) if self._partial else None
+            if rows_m is None:
+                self._partial = False
+            self._add_rows(rows, rows_m)
+            for k in new:
+                self._row_index[k] = len(self._row_index)
         idx = np.array([self._row_index[k] for k in keys], dtype=np.int64)
         s = self._gram[np.ix_(idx, idx)]
         s = 0.5 * (s + s.T)
         e_phi = (e @ self.placing_modes) if self.free_body else None
         return s, e_phi
 
-    def _reset_rows(self) -> None:
+    def _on_marks(self, rows: sp.csr_matrix) -> sp.csr_matrix | None:
+        """Rows (over the free DOFs) on the marked DOFs' numbering, or None if off them."""
+        marks = self._fact.marked
+        if not marks.size:
+            return None
+        where = np.full(self._to_factor.shape[0], -1, dtype=np.int64)
+        where[marks] = np.arange(marks.size)
+        r = rows.tocoo()
+        frow = self._frow[r.col]
+        sup = frow < 0  # a free body's support DOFs: its inner inverse is zero there
+        col = where[np.where(sup, 0, frow)]
+        if (col[~sup] < 0).any():
+            return None
+        keep = ~sup
+        return sp.csr_matrix(
+            (r.data[keep], (r.row[keep], col[keep])), shape=(rows.shape[0], marks.size)
+        )
+
+    def _add_rows(self, rows: sp.csr_matrix, rows_m: sp.csr_matrix | None) -> None:
+        """Keep new rows and their compliance with every kept row."""
+        old = len(self._row_index)
+        self._rows = rows if self._rows is None else sp.vstack([self._rows, rows]).tocsr()
+        if rows_m is not None:
+            self._rows_m = (
+                rows_m if self._rows_m is None else sp.vstack([self._rows_m, rows_m]).tocsr()
+            )
+        total = old + rows.shape[0]
+        if self._gram.shape[0] < total:
+            grown = np.zeros((max(total, 2 * self._gram.shape[0]),) * 2)
+            grown[:old, :old] = self._gram[:old, :old]
+            self._gram = grown
+        for j in range(0, rows.shape[0], BLOCK):
+            block = slice(j, min(j + BLOCK, rows.shape[0]))
+            if rows_m is None:
+                z = self.apply_inverse(rows[block].T.toarray())
+                self.n_back_solves += z.shape[1]
+                cross = self._rows @ z  # (total, block)
+            else:
+                cross = self._partial_cross(rows[block], rows_m[block])
+            cols = slice(old + block.start, old + block.stop)
+            self._gram[:total, cols] = cross
+            self._gram[cols, :total] = cross.T
+
+    def _partial_cross(self, rows: sp.csr_matrix, rows_m: sp.csr_matrix) -> NDArray:
+        """Compliance of the kept rows with ``rows`` from partial solves on the marks.
+
+        A held body: ``R K11^-1 r`` needs the solution on the marked DOFs only. A free
+        body: with ``J`` the inverse on its inner DOFs (zero on the support) and ``P =
+        I - Phi Phi^T``, ``r1 P J P r2 = r1 J r2 - a1 b2 - b1 a2 + a1 H a2`` where ``a =
+        Phi^T r``, ``b = (J Phi)^T r`` and ``H = Phi^T J Phi``.
+        """
+        z = self._fact.solve_marked(rows_m.T.toarray())  # type: ignore[attr-defined]
+        self.n_partial_solves += z.shape[1]
+        cross = self._rows_m @ z
+        if self.free_body:
+            phi, jphi = self.modes, self._j_phi()
+            a_all, b_all = self._rows @ phi, self._rows @ jphi
+            a_new, b_new = rows @ phi, rows @ jphi
+            h = phi.T @ jphi
+            cross = cross - a_all @ b_new.T - b_all @ a_new.T + a_all @ h @ a_new.T
+        return cross
+
+    def _j_phi(self) -> NDArray[np.float64]:
+        """``J Phi``: the inner inverse of a free body applied to its rigid modes (kept)."""
+        if self._jphi is None:
+            x = np.zeros_like(self.modes)
+            x[self._inner] = self._fact.solve(self.modes[self._inner])
+            self.n_back_solves += self.modes.shape[1]
+            self._jphi = x
+        return self._jphi
+
+    def _reset_rows(self, partial: bool = True) -> None:
         self._row_index: dict[bytes, int] = {}
         self._rows: sp.csr_matrix | None = None
+        self._rows_m: sp.csr_matrix | None = None
         self._gram = np.zeros((0, 0))
+        self._partial = partial
 
     # --- the solve -------------------------------------------------------------------
 

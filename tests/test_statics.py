@@ -198,3 +198,67 @@ def test_row_cache_overflow_starts_afresh(body, monkeypatch):
     ref = fem.StaticSolver(k, base).compliance(others[4:12])
     assert np.abs(b - ref).max() <= 1e-12 * np.abs(ref).max()
     assert np.allclose(a[4:, 4:], b[:4, :4], rtol=1e-12)
+
+
+def _contact_like_rows(mesh, nodes, seed):
+    """Rows like contact rows: a normal on a node minus weights on three other nodes."""
+    rng = np.random.default_rng(seed)
+    rows, cols, vals = [], [], []
+    for i, a in enumerate(nodes):
+        n = rng.standard_normal(3)
+        n /= np.linalg.norm(n)
+        others = rng.choice(np.setdiff1d(nodes, [a]), 3, replace=False)
+        w = rng.dirichlet(np.ones(3))
+        for node, c in [(a, 1.0), *zip(others, -w, strict=True)]:
+            rows += [i] * 3
+            cols += list(range(3 * node, 3 * node + 3))
+            vals += list(c * n)
+    return sp.csr_matrix((vals, (rows, cols)), shape=(len(nodes), mesh.n_dofs))
+
+
+@pytest.mark.skipif("pardiso" not in BACKENDS, reason="partial solves need PARDISO")
+@pytest.mark.parametrize("free", [False, True])
+def test_marked_compliance_equals_full_back_solves(free):
+    """Partial solves on marked DOFs give the compliance of full back-solves, and a row
+    off the marks turns the kept rows to full solves with the same numbers."""
+    mesh = distort(
+        fem.box_mesh((1.0, 0.5, 0.5), (8, 4, 4), element="tetra"), 0.1, seed=5, boundary=False
+    )
+    k = fem.assemble_stiffness(mesh, fem.LinearElastic(1e6, 0.3))
+    x = mesh.points
+    held = None if free else fem.node_dofs(np.flatnonzero(x[:, 0] == 0))
+    top = np.flatnonzero(np.isclose(x[:, 2], x[:, 2].max()))
+    e1 = _contact_like_rows(mesh, top, 1)
+    e2 = _contact_like_rows(mesh, top, 2)
+    far = np.flatnonzero(np.isclose(x[:, 2], x[:, 2].min()))
+    e3 = sp.vstack([e1, _contact_like_rows(mesh, far, 3)]).tocsr()
+
+    def make(lazy):
+        return fem.StaticSolver(k, held, points=x, lazy=lazy, hold_rotation=False)
+
+    ref = make(False)
+    s = make(True)
+    assert not s.factored
+    assert s.mark(fem.node_dofs(top))
+    for e in (e1, sp.vstack([e1, e2]).tocsr()):
+        want, got = ref.compliance(e), s.compliance(e)
+        np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-12 * np.abs(want).max())
+    assert s.n_factorizations == 1 and s.n_back_solves <= 6 and s.n_partial_solves == 2 * top.size
+    # a row off the marks: full back-solves for every row from then on, same numbers
+    np.testing.assert_allclose(
+        s.compliance(e3), ref.compliance(e3), rtol=1e-9, atol=1e-12 * np.abs(want).max()
+    )
+    assert s.n_back_solves >= e3.shape[0]
+    # marking more after the factorisation refactors; the solves still agree
+    assert s.mark(fem.node_dofs(far))
+    assert s.n_factorizations == 2
+    np.testing.assert_allclose(
+        s.compliance(e3), ref.compliance(e3), rtol=1e-9, atol=1e-12 * np.abs(want).max()
+    )
+    f = np.random.default_rng(4).standard_normal(mesh.n_dofs)
+    if free:
+        f -= ref.modes @ (ref.modes.T @ f)
+    np.testing.assert_allclose(s.solve(f).u, ref.solve(f).u, rtol=1e-9, atol=1e-15)
+    # too many marks: refused, nothing refactored
+    assert not s.mark(np.arange(mesh.n_dofs))
+    assert s.n_factorizations == 2
