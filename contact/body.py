@@ -4,17 +4,21 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from functools import cached_property
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 import fem
 
+if TYPE_CHECKING:
+    from .surfacequery import TriangleSurface
+
 __all__ = ["ElasticBody"]
 
 
 class ElasticBody:
-    """A linear elastic body whose stiffness is assembled and factored once.
+    """A linear elastic body whose stiffness is assembled once and factored once.
 
     Parameters
     ----------
@@ -41,6 +45,10 @@ class ElasticBody:
     supports : mapping of str to array_like of int, optional
         Named groups of prescribed nodes (a hand's bones) whose reaction forces are
         reported; every node of a group must be prescribed in all three directions.
+    lazy : bool, optional
+        Factor the stiffness on first use (default), so that the contact iteration can
+        mark the contact zone first (:meth:`fem.StaticSolver.mark`: partial solves
+        there); False factors it now.
     """
 
     def __init__(
@@ -55,6 +63,7 @@ class ElasticBody:
         contact_faces: fem.BoundaryFaces | None = None,
         supports: Mapping[str, ArrayLike] | None = None,
         hold_rotation: bool = True,
+        lazy: bool = True,
     ) -> None:
         self.name = name
         self.mesh = mesh
@@ -62,7 +71,12 @@ class ElasticBody:
         self.stiffness = fem.assemble_stiffness(mesh, materials)
         pres = None if prescribed is None else np.asarray(prescribed, dtype=np.int64)
         self.solver = fem.StaticSolver(
-            self.stiffness, pres, points=mesh.points, backend=backend, hold_rotation=hold_rotation
+            self.stiffness,
+            pres,
+            points=mesh.points,
+            backend=backend,
+            hold_rotation=hold_rotation,
+            lazy=lazy,
         )
         n = mesh.n_dofs
         self.loads = np.zeros(n) if loads is None else np.asarray(loads, dtype=np.float64)
@@ -130,6 +144,20 @@ class ElasticBody:
         from .surfacequery import surface_of_mesh
 
         return surface_of_mesh(self.mesh, self.contact_faces)[1]
+
+    @cached_property
+    def contact_surface(self) -> TriangleSurface:
+        """The contact faces as a triangle surface at rest (edge neighbours computed once).
+
+        Deformed positions come from its :meth:`~contact.surfacequery.TriangleSurface.moved`.
+        """
+        from .surfacequery import TriangleSurface
+
+        surf = TriangleSurface(
+            self.mesh.points, self.contact_triangles, name=f"{self.name} contact surface"
+        )
+        _ = surf._twins  # kept by every moved copy
+        return surf
 
     @cached_property
     def contact_closed(self) -> bool:

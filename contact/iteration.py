@@ -139,6 +139,7 @@ class _Frame:
         names = [b.name for b in bodies] + [p.name for p in planes]
         if len(set(names)) != len(names):
             raise ContactError(f"body and plane names must be unique, got {names}")
+        self.t0 = time.perf_counter()
         self.bodies = list(bodies)
         self.planes = list(planes)
         self.pairs = list(pairs)
@@ -165,6 +166,7 @@ class _Frame:
             float(self.local[b.name].max()) for b in self.bodies
         )  # broad-phase margin: one element
         self.callback: Callable[[IterationRecord], None] | None = None
+        self._measured: dict[int, tuple[dict[str, NDArray], float, Penetrations]] = {}
         self._force = 0.0
         self.broken = 0
         self.renewed: dict[int, dict[int, int]] = {}
@@ -177,6 +179,57 @@ class _Frame:
             i: mortar_candidates(p, i, self.margin) for i, p in enumerate(self.pairs) if p.mortar
         }
         self.timings["mortar"] = time.perf_counter() - t
+
+    def mark_zones(self) -> None:
+        """Mark each body's contact zone for partial solves, before it is factored.
+
+        The zone of a pair: its slave nodes closer to the master than one element plus
+        the pair's deepest overlap (for Hertz, every node of the final patch overlaps by
+        half the deepest at least: the margin covers the bodies' rigid moves), and the
+        master's contact nodes within that distance of them. Rows
+        there get their compliance from partial solves (:meth:`fem.StaticSolver.mark`);
+        a row that falls outside costs full back-solves, nothing else.
+        """
+        from scipy.spatial import cKDTree
+
+        t = time.perf_counter()
+        u = {b.name: np.zeros((b.mesh.n_points, 3)) for b in self.bodies}
+        zone: dict[str, list[NDArray[np.int64]]] = {b.name: [] for b in self.bodies}
+        for i, pair in enumerate(self.pairs):
+            if i in self.mortar:
+                cand = self.mortar[i]
+                sides = ((pair.slave, cand.rows.s_nodes), (pair.master, cand.rows.m_nodes))
+                for body, nodes in sides:
+                    zone[body.name].append(np.unique(nodes[nodes >= 0]))  # type: ignore[union-attr]
+                continue
+            wide = 3.0 * self.margin
+            p = self.measure_pair(i, u, wide)
+            depth = float(np.max(-p.gap, initial=0.0))
+            reach = self.margin + depth
+            if reach > wide:
+                p = self.measure_pair(i, u, reach)
+            near = p.nodes[p.gap < reach]
+            if not near.size:
+                continue
+            zone[pair.slave.name].append(near)
+            if not pair.rigid:
+                master: ElasticBody = pair.master  # type: ignore[assignment]
+                used = master.contact_nodes
+                tree = cKDTree(pair.slave.mesh.points[near])
+                d, _ = tree.query(master.mesh.points[used], distance_upper_bound=reach)
+                zone[master.name].append(used[np.isfinite(d)])
+        for b in self.bodies:
+            if zone[b.name] and not b.solver.factored:
+                nodes = np.unique(np.concatenate(zone[b.name]))
+                covered = b.solver.mark(fem.node_dofs(nodes))
+                log.debug("%s: %d contact-zone nodes marked: %s", b.name, nodes.size, covered)
+        self.timings["geometry"] += time.perf_counter() - t
+        before = {b.name: b.solver.factor_time for b in self.bodies}
+        for b in self.bodies:
+            b.solver.factorize()
+        self.timings["factorisation"] = sum(
+            b.solver.factor_time - before[b.name] for b in self.bodies
+        )
 
     def slipping(self, states: dict[str, BodyState], broken: int) -> str:
         """The stop reason when contacts in the set have lost their masters.
@@ -222,9 +275,27 @@ class _Frame:
     def measure(self, u: dict[str, NDArray]) -> list[Penetrations]:
         """Gaps of every pair's candidates at displacements ``u``."""
         t = time.perf_counter()
-        out = [measure(p, u, self.margin) for p in self.pairs]
+        out = [self.measure_pair(i, u, self.margin) for i in range(len(self.pairs))]
         self.timings["geometry"] += time.perf_counter() - t
         return out
+
+    def measure_pair(self, i: int, u: dict[str, NDArray], margin: float) -> Penetrations:
+        """Pair ``i``'s candidates within ``margin`` at displacements ``u``.
+
+        The last measurement of each pair is kept: asked again at the same displacements
+        (the converged state, the rest state the contact zone was marked at) with a
+        margin no wider, it is filtered instead of measured again.
+        """
+        pair = self.pairs[i]
+        names = [pair.slave.name] + ([] if pair.rigid else [pair.master.name])
+        kept = self._measured.get(i)
+        if kept is not None:
+            ku, kmargin, kp = kept
+            if margin <= kmargin and all(np.array_equal(ku[n], u[n]) for n in names):
+                return kp.select(kp.gap < margin)
+        p = measure(pair, u, margin)
+        self._measured[i] = ({n: np.array(u[n]) for n in names}, margin, p)
+        return p
 
     def tol(self, pair: ContactPair, nodes: NDArray[np.int64]) -> NDArray[np.float64]:
         """Penetration tolerance of slave nodes (m)."""
@@ -272,7 +343,7 @@ class _Frame:
                 changed += n
                 depth = max(depth, d)
                 continue
-            p = measure(pair, u, self.margin)
+            p = self.measure_pair(i, u, self.margin)
             if not p.nodes.size:
                 continue
             tol = self.tol(pair, p.nodes)
@@ -526,13 +597,14 @@ def solve_frame(
     settings = settings or ContactSettings()
     frame = _Frame(bodies, planes, pairs, settings)
     frame.callback = callback
+    frame.mark_zones()
     if settings.algorithm == "seed":
         return _seed(frame, dirichlet or frame.bodies[0].name)
     return _contact_space(frame)
 
 
 def _contact_space(frame: _Frame) -> FrameResult:
-    t0 = time.perf_counter()
+    t0 = frame.t0
     st = frame.settings
     space = ContactSpace(frame.bodies)
     u = {b.name: np.zeros((b.mesh.n_points, 3)) for b in frame.bodies}
@@ -597,7 +669,7 @@ def _contact_space(frame: _Frame) -> FrameResult:
 
 
 def _seed(frame: _Frame, dirichlet: str) -> FrameResult:
-    t0 = time.perf_counter()
+    t0 = frame.t0
     st = frame.settings
     names = [b.name for b in frame.bodies]
     if dirichlet not in names:

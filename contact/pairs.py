@@ -170,8 +170,11 @@ def measure(pair: ContactPair, u: dict[str, NDArray[np.float64]], margin: float)
     dbl = np.linalg.norm(np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), axis=1)
     edge2 = np.max([((x[:, i] - x[:, (i + 1) % 3]) ** 2).sum(axis=1) for i in range(3)], axis=0)
     keep = dbl > 10 * DEGENERATE_TOL * edge2
-    tri = tri if keep.all() else tri[keep]
-    surface = TriangleSurface(xm, tri, name=f"{master.name} contact surface")
+    if keep.all():
+        surface = master.contact_surface.moved(xm)  # connectivity checked once
+    else:
+        tri = tri[keep]
+        surface = TriangleSurface(xm, tri, name=f"{master.name} contact surface")
     c = surface.closest(xs)
     # a closed contact surface (a ball, a skin: checked at rest) tells inside by its
     # winding number, robust in concave places; an open one (a pad's top) by the side of
