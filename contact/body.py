@@ -156,7 +156,7 @@ class ElasticBody:
         surf = TriangleSurface(
             self.mesh.points, self.contact_triangles, name=f"{self.name} contact surface"
         )
-        _ = surf._twins  # kept by every moved copy
+        _ = surf._twins, surf._corners  # kept by every moved copy
         return surf
 
     @cached_property

@@ -287,8 +287,9 @@ class TriangleSurface:
         new.triangles = self.triangles
         new._set_points(self._check_points(points, len(self.points)))
         new._closed = self._closed
-        if "_twins" in self.__dict__:
-            new.__dict__["_twins"] = self.__dict__["_twins"]
+        for topology in ("_twins", "_corners"):  # depend on the triangles only
+            if topology in self.__dict__:
+                new.__dict__[topology] = self.__dict__[topology]
         return new
 
     # --- facts -----------------------------------------------------------------------
@@ -377,6 +378,37 @@ class TriangleSurface:
         return twin.reshape(-1, 3)
 
     @cached_property
+    def _corners(self) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+        """Corners ``3 f + i`` sorted by node, and where each node's run starts."""
+        flat = self.triangles.ravel()
+        order = np.argsort(flat, kind="stable")
+        start = np.searchsorted(flat[order], np.arange(self.n_points + 1))
+        return order, start
+
+    def vertex_normals_at(self, nodes: ArrayLike) -> NDArray[np.float64]:
+        """Angle-weighted pseudo-normals ``(k, 3)`` of some nodes only.
+
+        As :attr:`vertex_normals`, from the corners around each node, not the whole surface.
+        """
+        nodes = np.asarray(nodes, dtype=np.int64)
+        if "vertex_normals" in self.__dict__:
+            return self.vertex_normals[nodes]
+        order, start = self._corners
+        counts = start[nodes + 1] - start[nodes]
+        owner = np.repeat(np.arange(nodes.size), counts)
+        first = np.repeat(start[nodes] - np.cumsum(counts) + counts, counts)
+        corner = order[first + np.arange(counts.sum())]
+        f, i = corner // 3, corner % 3
+        x = self.points[self.triangles[f]]
+        k = np.arange(f.size)
+        u = _unit(x[k, (i + 1) % 3] - x[k, i])
+        v = _unit(x[k, (i + 2) % 3] - x[k, i])
+        angle = np.arctan2(np.linalg.norm(np.cross(u, v), axis=1), np.einsum("ij,ij->i", u, v))
+        out = np.zeros((nodes.size, 3))
+        np.add.at(out, owner, angle[:, None] * self.face_normals[f])
+        return _unit(out)
+
+    @cached_property
     def vertex_normals(self) -> NDArray[np.float64]:
         """Angle-weighted pseudo-normals of the nodes, ``(n, 3)`` (zero for unused nodes)."""
         x = self.points[self.triangles]
@@ -438,7 +470,7 @@ class TriangleSurface:
         at_vertex = np.flatnonzero(feature == 1)
         if at_vertex.size:
             node = self.triangles[face[at_vertex], np.argmax(w[at_vertex], axis=1)]
-            normal[at_vertex] = self.vertex_normals[node]
+            normal[at_vertex] = self.vertex_normals_at(node)
         return Closest(distance, point, face, w, normal, feature)
 
     def winding_number(self, x: ArrayLike) -> NDArray[np.float64]:

@@ -252,6 +252,11 @@ class StaticSolver:
         return self.factorize()._factorization  # type: ignore[return-value]
 
     @property
+    def factored_matrix(self) -> sp.csr_matrix:
+        """The matrix factored: ``K11`` (a free body: ``K`` less its six support DOFs)."""
+        return self._to_factor
+
+    @property
     def factored(self) -> bool:
         """Whether the stiffness is factored (a lazy solver is not until first used)."""
         return self._factorization is not None

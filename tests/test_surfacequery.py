@@ -289,3 +289,14 @@ def test_empty_query():
     c = s.closest(np.zeros((0, 3)))
     assert c.point.shape == (0, 3) and c.face.shape == (0,)
     assert s.inside(np.zeros((0, 3))).shape == (0,)
+
+
+def test_vertex_normals_of_some_nodes_equal_the_whole_surface():
+    s = _sphere(2)
+    pts, tri = s.points, s.triangles
+    nodes = np.array([0, 5, 5, len(pts) - 1])
+    got = s.vertex_normals_at(nodes)
+    np.testing.assert_allclose(got, TriangleSurface(pts, tri).vertex_normals[nodes], atol=1e-14)
+    assert np.linalg.norm(got - pts[nodes] / np.linalg.norm(pts[nodes], axis=1)[:, None]) < 0.1
+    moved = s.moved(pts * 2.0)
+    np.testing.assert_allclose(moved.vertex_normals_at(nodes), got, atol=1e-14)
