@@ -68,6 +68,7 @@ def main(argv: list[str]) -> int:
     import contact.grasp
     import contact.output
     import contact.scene
+    import fem
 
     imports = time.perf_counter() - t0
     grasp = contact.grasp
@@ -76,6 +77,8 @@ def main(argv: list[str]) -> int:
     for name in ("angles", "ball_body", "hand_body", "check_bones"):
         _wrap(grasp.GraspRun, name, "posing")
     _wrap(contact.body.ElasticBody, "__init__", "assemble_factor")
+    # bodies factor lazily, inside the contact iteration once their contact zone is marked
+    _wrap(fem.StaticSolver, "factorize", "assemble_factor")
     _wrap(grasp, "solve_frame", "contact")
     for name in ("__init__", "add_frame", "finish"):
         _wrap(contact.output.ResultsWriter, name, "writing")
