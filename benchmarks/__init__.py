@@ -1,7 +1,7 @@
 """Benchmarks of the ``fem`` library against reference implementations.
 
-Run them with ``python -m benchmarks NAME [--quick]`` where ``NAME`` is ``assembly``,
-``linear_solve`` or ``all``. Full runs write CSV, markdown and PNG results into
+Run them with ``python -m benchmarks NAME [NAME ...] [--quick]`` where ``NAME`` is one
+of :data:`BENCHMARKS` or ``all``. Full runs write CSV, markdown and PNG results into
 ``benchmarks/results/``; ``--quick`` runs tiny sizes in seconds (a smoke test) and writes
 into ``benchmarks/results/quick/`` unless ``--out`` says otherwise.
 """
@@ -11,4 +11,15 @@ from __future__ import annotations
 __all__ = ["BENCHMARKS"]
 
 #: Benchmark names runnable from the command line, in the order ``all`` runs them.
-BENCHMARKS = ("assembly", "linear_solve", "queries", "hertz", "hertz_bodies", "posing")
+BENCHMARKS = (
+    "assembly",
+    "linear_solve",
+    "scaling",
+    "queries",
+    "convergence",
+    "hertz",
+    "hertz_bodies",
+    "iteration",
+    "frame",
+    "posing",
+)

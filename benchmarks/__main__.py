@@ -1,4 +1,4 @@
-"""Command line: ``python -m benchmarks {assembly,linear_solve,all} [--quick] [--out DIR]``."""
+"""Command line: ``python -m benchmarks NAME [NAME ...] [--quick] [--out DIR]`` (or ``all``)."""
 
 from __future__ import annotations
 
@@ -13,10 +13,10 @@ def main(argv: list[str] | None = None) -> None:
     """Parse the command line and run the chosen benchmarks."""
     ap = argparse.ArgumentParser(
         prog="python -m benchmarks",
-        description="Benchmarks of fem: stiffness assembly against scikit-fem and the "
-        "sparse direct solvers against scipy's spsolve.",
+        description="Benchmarks and convergence studies of fem and contact: CSV, markdown "
+        "and PNG results with the machine, the versions and the date.",
     )
-    ap.add_argument("name", choices=[*BENCHMARKS, "all"], help="which benchmark")
+    ap.add_argument("name", nargs="+", choices=[*BENCHMARKS, "all"], help="which studies")
     ap.add_argument("--quick", action="store_true", help="tiny sizes: a smoke test of seconds")
     ap.add_argument(
         "--out",
@@ -24,7 +24,7 @@ def main(argv: list[str] | None = None) -> None:
         "with --quick)",
     )
     args = ap.parse_args(argv)
-    names = BENCHMARKS if args.name == "all" else (args.name,)
+    names = BENCHMARKS if "all" in args.name else tuple(dict.fromkeys(args.name))
     t0 = time.perf_counter()
     for name in names:
         module = importlib.import_module(f"{__package__}.{name}")

@@ -1,12 +1,25 @@
 """The benchmarks' quick mode runs in the default suite, so that they never rot."""
 
 import csv
+import importlib
+from pathlib import Path
 
+from benchmarks import BENCHMARKS
 from benchmarks.__main__ import main
+
+#: Studies whose quick mode runs here; the others have their own test_bench_NAME.py.
+HERE = ("assembly", "linear_solve", "queries", "hertz", "hertz_bodies", "posing")
+
+
+def test_every_study_runs_and_has_a_quick_test():
+    tests = Path(__file__).parent
+    for name in BENCHMARKS:
+        assert callable(importlib.import_module(f"benchmarks.{name}").run), name
+        assert name in HERE or (tests / f"test_bench_{name}.py").exists(), name
 
 
 def test_benchmarks_quick(tmp_path):
-    main(["all", "--quick", "--out", str(tmp_path)])
+    main([*HERE, "--quick", "--out", str(tmp_path)])
     for name in ("assembly", "linear_solve", "queries", "hertz", "hertz_bodies", "posing"):
         rows = list(csv.DictReader((tmp_path / f"{name}.csv").open()))
         assert rows, name
