@@ -184,11 +184,12 @@ class _Frame:
         """Mark each body's contact zone for partial solves, before it is factored.
 
         The zone of a pair: its slave nodes closer to the master than one element plus
-        the pair's deepest overlap (for Hertz, every node of the final patch overlaps by
-        half the deepest at least: the margin covers the bodies' rigid moves), and the
-        master's contact nodes within that distance of them. Rows
-        there get their compliance from partial solves (:meth:`fem.StaticSolver.mark`);
-        a row that falls outside costs full back-solves, nothing else.
+        half the pair's deepest overlap (for Hertz, every node of the final patch
+        overlaps by half the deepest at least), and the master's contact nodes within
+        that distance of them. Rows there get their compliance from partial solves
+        (:meth:`fem.StaticSolver.mark`); a row outside (the bodies moved further) costs
+        a full back-solve, nothing else. Each marked DOF makes the factorisation dearer
+        (the zone is ordered last): the zone is kept tight.
         """
         from scipy.spatial import cKDTree
 
@@ -205,7 +206,7 @@ class _Frame:
             wide = 3.0 * self.margin
             p = self.measure_pair(i, u, wide)
             depth = float(np.max(-p.gap, initial=0.0))
-            reach = self.margin + depth
+            reach = self.margin + 0.5 * depth
             if reach > wide:
                 p = self.measure_pair(i, u, reach)
             near = p.nodes[p.gap < reach]

@@ -349,8 +349,9 @@ class StaticSolver:
 
         The compliance between two rows depends on those rows alone, so it is kept for
         every row met so far: a contact set that gains or loses a few nodes costs a few
-        solves, not one per contact DOF. Rows on marked DOFs only take partial solves
-        (:meth:`mark`); the first row off them turns the kept rows to full back-solves.
+        solves, not one per contact DOF. A row on marked DOFs only takes a partial solve
+        (:meth:`mark`); a row off them a full back-solve, whose answer is kept to give
+        its compliance with the rows met later.
         """
         self.factorize()
         ef = sp.csr_matrix(e[:, self.free])
@@ -363,23 +364,13 @@ class StaticSolver:
         ]
         new = list(dict.fromkeys(k for k in keys if k not in self._row_index))
         if new:
+            if len(self._row_index) + len(new) > ROW_CACHE:
+                self._reset_rows()
+                new = list(dict.fromkeys(keys))
             first = {k: i for i, k in reversed(list(enumerate(keys)))}
             rows = ef[[first[k] for k in new]]
-            rows_m = self._on_marks(rows) if self._partial else None
-            if self._partial and rows_m is None and self._row_index:
-                # a row off the marked DOFs: every kept row is solved again in full
-                log.debug("contact rows left the marked DOFs: full back-solves from now")
-                self._reset_rows(partial=False)
-                new = list(dict.fromkeys(keys))
-                rows = ef[[first[k] for k in new]]
-            elif len(self._row_index) + len(new) > ROW_CACHE:
-                self._reset_rows(partial=self._partial)
-                new = list(dict.fromkeys(keys))
-                rows = ef[[first[k] for k in new]]
-                rows_m = self._on_marks(rows) if self._partial else None
-            if rows_m is None:
-                self._partial = False
-            self._add_rows(rows, rows_m)
+            for j in range(0, rows.shape[0], BLOCK):
+                self._add_rows(rows[j : j + BLOCK])
             for k in new:
                 self._row_index[k] = len(self._row_index)
         idx = np.array([self._row_index[k] for k in keys], dtype=np.int64)
@@ -388,56 +379,69 @@ class StaticSolver:
         e_phi = (e @ self.placing_modes) if self.free_body else None
         return s, e_phi
 
-    def _on_marks(self, rows: sp.csr_matrix) -> sp.csr_matrix | None:
-        """Rows (over the free DOFs) on the marked DOFs' numbering, or None if off them."""
+    def _on_marks(self, rows: sp.csr_matrix) -> tuple[sp.csr_matrix, NDArray[np.bool_]]:
+        """Rows (over the free DOFs) on the marked DOFs' numbering, and which lie on them.
+
+        A free body's support DOFs count as marked: its inner inverse is zero there.
+        """
         marks = self._fact.marked
+        k = rows.shape[0]
         if not marks.size:
-            return None
+            return sp.csr_matrix((k, 0)), np.zeros(k, dtype=bool)
         where = np.full(self._to_factor.shape[0], -1, dtype=np.int64)
         where[marks] = np.arange(marks.size)
         r = rows.tocoo()
         frow = self._frow[r.col]
-        sup = frow < 0  # a free body's support DOFs: its inner inverse is zero there
+        sup = frow < 0
         col = where[np.where(sup, 0, frow)]
-        if (col[~sup] < 0).any():
-            return None
-        keep = ~sup
-        return sp.csr_matrix(
-            (r.data[keep], (r.row[keep], col[keep])), shape=(rows.shape[0], marks.size)
-        )
+        off = ~sup & (col < 0)
+        inside = np.ones(k, dtype=bool)
+        inside[r.row[off]] = False
+        keep = ~sup & ~off
+        rows_m = sp.csr_matrix((r.data[keep], (r.row[keep], col[keep])), shape=(k, marks.size))
+        return rows_m, inside
 
-    def _add_rows(self, rows: sp.csr_matrix, rows_m: sp.csr_matrix | None) -> None:
-        """Keep new rows and their compliance with every kept row."""
-        old = len(self._row_index)
+    def _add_rows(self, rows: sp.csr_matrix) -> None:
+        """Keep new rows and their compliance with every kept row (and each other)."""
+        old = 0 if self._rows is None else self._rows.shape[0]
+        k = rows.shape[0]
+        rows_m, inside = self._on_marks(rows)
         self._rows = rows if self._rows is None else sp.vstack([self._rows, rows]).tocsr()
-        if rows_m is not None:
-            self._rows_m = (
-                rows_m if self._rows_m is None else sp.vstack([self._rows_m, rows_m]).tocsr()
-            )
-        total = old + rows.shape[0]
+        self._rows_m = rows_m if self._rows_m is None else sp.vstack([self._rows_m, rows_m]).tocsr()
+        self._inside = np.concatenate([self._inside, inside])
+        total = old + k
+        cross = np.zeros((total, k))
+        out = np.flatnonzero(~inside)
+        if out.size:
+            z = self.apply_inverse(rows[out].T.toarray())  # C r, full
+            self.n_back_solves += out.size
+            cross[:, out] = self._rows @ z
+            self._zout = np.hstack([self._zout, z]) if self._zout.size else z
+            self._out_rows = np.concatenate([self._out_rows, old + out])
+        inn = np.flatnonzero(inside)
+        if inn.size:
+            kept_in = np.flatnonzero(self._inside)
+            part = self._partial_cross(rows[inn], rows_m[inn])  # (total, k_in)
+            cross[np.ix_(kept_in, inn)] = part[kept_in]
+            if self._out_rows.size:
+                # rows off the marks: their kept answers C r give the compliance
+                cross[np.ix_(self._out_rows, inn)] = (rows[inn] @ self._zout).T
         if self._gram.shape[0] < total:
             grown = np.zeros((max(total, 2 * self._gram.shape[0]),) * 2)
             grown[:old, :old] = self._gram[:old, :old]
             self._gram = grown
-        for j in range(0, rows.shape[0], BLOCK):
-            block = slice(j, min(j + BLOCK, rows.shape[0]))
-            if rows_m is None:
-                z = self.apply_inverse(rows[block].T.toarray())
-                self.n_back_solves += z.shape[1]
-                cross = self._rows @ z  # (total, block)
-            else:
-                cross = self._partial_cross(rows[block], rows_m[block])
-            cols = slice(old + block.start, old + block.stop)
-            self._gram[:total, cols] = cross
-            self._gram[cols, :total] = cross.T
+        cols = slice(old, total)
+        self._gram[:total, cols] = cross
+        self._gram[cols, :total] = cross.T
 
     def _partial_cross(self, rows: sp.csr_matrix, rows_m: sp.csr_matrix) -> NDArray:
-        """Compliance of the kept rows with ``rows`` from partial solves on the marks.
+        """Compliance of the kept rows on the marks with ``rows``, from partial solves.
 
         A held body: ``R K11^-1 r`` needs the solution on the marked DOFs only. A free
         body: with ``J`` the inverse on its inner DOFs (zero on the support) and ``P =
         I - Phi Phi^T``, ``r1 P J P r2 = r1 J r2 - a1 b2 - b1 a2 + a1 H a2`` where ``a =
-        Phi^T r``, ``b = (J Phi)^T r`` and ``H = Phi^T J Phi``.
+        Phi^T r``, ``b = (J Phi)^T r`` and ``H = Phi^T J Phi``. Rows of the result for
+        kept rows off the marks are meaningless.
         """
         z = self._fact.solve_marked(rows_m.T.toarray())  # type: ignore[attr-defined]
         self.n_partial_solves += z.shape[1]
@@ -459,12 +463,14 @@ class StaticSolver:
             self._jphi = x
         return self._jphi
 
-    def _reset_rows(self, partial: bool = True) -> None:
+    def _reset_rows(self) -> None:
         self._row_index: dict[bytes, int] = {}
         self._rows: sp.csr_matrix | None = None
         self._rows_m: sp.csr_matrix | None = None
+        self._inside = np.zeros(0, dtype=bool)
+        self._zout = np.zeros((0, 0))  # C r of the kept rows off the marks
+        self._out_rows = np.zeros(0, dtype=np.int64)
         self._gram = np.zeros((0, 0))
-        self._partial = partial
 
     # --- the solve -------------------------------------------------------------------
 
