@@ -405,9 +405,10 @@ def run(quick: bool = False, out: str | Path | None = None) -> list[dict]:
             if v.label == CONTACT_SPACE.label:
                 reference = row
             if reference is not None and reference["normal_force"]:
-                row["force_vs_cs_pct"] = 100 * (
-                    row["normal_force"] / reference["normal_force"] - 1.0
-                )
+                if row["stop_reason"] != "diverged":
+                    row["force_vs_cs_pct"] = 100 * (
+                        row["normal_force"] / reference["normal_force"] - 1.0
+                    )
                 scale = reference["max_displacement"]
                 for h in hist:
                     h["max_change_rel"] = h["max_change"] / scale if scale > 0 else math.nan
@@ -431,9 +432,11 @@ def run(quick: bool = False, out: str | Path | None = None) -> list[dict]:
 
 
 def _code_version() -> str:
-    """The git commit, whether contact/ or fem/ differ from it, and contact's digest."""
+    """The git commit, whether contact/, fem/ or meshes/ differ from it, and digests."""
     root = Path(contact.__file__).resolve().parent
     digest = hashlib.sha1(b"".join(f.read_bytes() for f in sorted(root.glob("*.py"))))
+    hand = sorted((root.parent / "meshes" / "hand").glob("flesh_*.vtu"))
+    meshes = hashlib.sha1(b"".join(f.read_bytes() for f in hand)).hexdigest()[:12]
     try:
         head = subprocess.run(
             ["git", "rev-parse", "--short", "HEAD"],
@@ -443,16 +446,19 @@ def _code_version() -> str:
             check=True,
         ).stdout.strip()
         dirty = subprocess.run(
-            ["git", "status", "--porcelain", "--", "contact", "fem"],
+            ["git", "status", "--porcelain", "--", "contact", "fem", "meshes"],
             cwd=root.parent,
             capture_output=True,
             text=True,
             check=True,
         ).stdout.strip()
     except (OSError, subprocess.CalledProcessError):
-        return f"contact sources sha1 {digest.hexdigest()[:12]}"
-    state = " with uncommitted changes in contact/ or fem/" if dirty else ""
-    return f"commit {head}{state}; contact sources sha1 {digest.hexdigest()[:12]}"
+        head, dirty = "unknown", ""
+    state = " with uncommitted changes in contact/, fem/ or meshes/" if dirty else ""
+    return (
+        f"commit {head}{state}; contact sources sha1 {digest.hexdigest()[:12]}; hand flesh "
+        f"meshes sha1 {meshes}"
+    )
 
 
 CSV_KEYS = [
@@ -559,21 +565,28 @@ def _goals(rows: list[dict], quick: bool) -> list[dict]:
                 ]
                 if not sel:
                     continue
-                worst = max(sel, key=lambda r: (not r["converged"], r["iterations"]))
                 ok = all(r["converged"] and r["iterations"] <= GOAL_UPDATES for r in sel)
                 failed = [r for r in sel if not r["converged"]]
+                most = max(
+                    (r for r in sel if r["converged"]), key=lambda r: r["iterations"], default=None
+                )
                 goals.append(
                     {
                         "goal": f"contact-set updates, E ratio 0.01 to 100: <= {GOAL_UPDATES}",
                         "case": f"{scene}, {v.label}, {what}",
                         "measured": (
-                            f"most {max(r['iterations'] for r in sel)} (E ratio "
-                            f"{worst['ratio']:g}); "
-                            + (
-                                f"{len(failed)} of {len(sel)} frames not converged"
-                                if failed
-                                else f"all {len(sel)} converged"
+                            "; ".join(
+                                f"E ratio {r['ratio']:g}"
+                                + (f", {r['mesh']}" if study == "refinement" else "")
+                                + f": {r['cell']}"
+                                for r in sel
                             )
+                            + (
+                                f" (most when converged: {most['iterations']})"
+                                if most is not None
+                                else ""
+                            )
+                            + (f"; {len(failed)} of {len(sel)} not converged" if failed else "")
                         ),
                         "verdict": _flag(ok),
                     }
@@ -668,6 +681,19 @@ def _notes(rows: list[dict]) -> str:
             f"{r['press']:g}: {r['variant']}: {r['penetration_ratio']:.1e}"
             for r in deep
         ]
+    heavy = [r for r in rows if r["algorithm"] == "contact-space" and r["back_solves"] > 100]
+    if heavy:
+        lines.append("")
+        lines.append(
+            "Contact-space frames with more than 100 full back-solves (rows whose compliance "
+            "did not come from partial solves on a body's marked contact zone):"
+        )
+        lines += [
+            f"- {r['study']}: {r['scene']}, E ratio {r['ratio']:g}, {r['mesh']}, press "
+            f"{r['press']:g}: {r['back_solves_by_body']} (partial {r['partial_solves']}), "
+            f"contact solve {r['contact_s']:.1f} s"
+            for r in heavy
+        ]
     return "\n".join(lines) if lines else "Every frame converged."
 
 
@@ -716,7 +742,8 @@ def _write_report(
             "DOFs only (n_partial_solves, where the solver has them). The seed loop's "
             "Neumann side adds one full solve of the other body per iteration, not "
             "counted there. vs contact space: the normal force against contact space's "
-            "on the same frame. Contact solve: the frame's wall time less the bodies' "
+            "on the same frame (blank where the seed loop diverged). Contact solve: the "
+            "frame's wall time less the bodies' "
             "factorisation (done in the frame when the bodies factor lazily; "
             "`factor_s` in the CSV).",
         ),
@@ -756,6 +783,10 @@ STYLES = {
 }
 
 
+#: Top of the history plots' y-axes (diverging seed iterates go far beyond).
+CLIP = 1e4
+
+
 def _plot_histories(path: Path, history: list[dict], quick: bool) -> None:
     """Semilog-y panels of the largest change per iteration: a panel per scene and ratio."""
     import matplotlib
@@ -778,10 +809,14 @@ def _plot_histories(path: Path, history: list[dict], quick: bool) -> None:
                     for h in sel
                     if h["variant"] == label
                 ]
-                x, y = zip(*pts)
+                x = [p[0] for p in pts]
+                y = [min(p[1], CLIP) for p in pts]  # diverging iterates drawn at the clip
                 color, marker = STYLES.get(label, (None, "."))
                 ax.semilogy(x, y, marker=marker, color=color, ms=3, lw=1, label=label)
             ax.axhline(1e-4, color="0.6", ls=":", lw=0.8)
+            low, high = ax.get_ylim()
+            if high > CLIP:
+                ax.set_ylim(low, 3 * CLIP)
             ax.set_title(f"{scene}, E ratio {ratio:g}", fontsize="small")
             ax.set_xlabel("iteration")
             if j == 0:
@@ -794,7 +829,7 @@ def _plot_histories(path: Path, history: list[dict], quick: bool) -> None:
     fig.legend(handles.values(), handles.keys(), loc="lower center", ncol=4, fontsize="small")
     fig.suptitle(
         "Largest change of a nodal displacement per iteration (dotted: the seed loop's "
-        "tolerance 1e-4)",
+        f"tolerance 1e-4; values above {CLIP:g} drawn at {CLIP:g}: diverging)",
         fontsize="medium",
     )
     fig.tight_layout(rect=(0, 0.08, 1, 0.96))
@@ -809,7 +844,7 @@ def _plot_counts(path: Path, rows: list[dict], quick: bool) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, (a1, a2, a3) = plt.subplots(1, 3, figsize=(15, 4.6))
+    fig, (a1, a2, a3) = plt.subplots(1, 3, figsize=(15, 6.8))
     lines = {"hand cup": "-", "sphere-block": "--"}
 
     def draw(ax: Any, sel: Sequence[dict], xkey: str, label: str, style: tuple) -> None:
@@ -865,7 +900,7 @@ def _plot_counts(path: Path, rows: list[dict], quick: bool) -> None:
         ax.set_ylabel("iterations")
         ax.set_title(title, fontsize="medium")
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize="x-small")
+        ax.legend(fontsize="x-small", loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2)
     fig.suptitle("Iterations of a frame (ringed: not converged; dotted: the goal of 10)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
