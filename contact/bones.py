@@ -34,7 +34,7 @@ from .surfaces import enclosed_volume, poly_from_arrays
 if TYPE_CHECKING:
     import pyvista
 
-__all__ = ["bone_profile", "bone_surfaces", "sweep_bone"]
+__all__ = ["bone_profile", "bone_surfaces", "joint_clearance", "sweep_bone"]
 
 log = logging.getLogger(__name__)
 
@@ -137,8 +137,13 @@ def sweep_bone(
     return pts, tri
 
 
-def _start_offsets(skeleton: Skeleton, edge: float) -> dict[str, tuple[NDArray, NDArray]]:
-    """Sweep every bone at rest, parents first, each starting ``gap`` beyond its parents."""
+def _start_offsets(
+    skeleton: Skeleton, edge: float, starts: dict[str, float] | None = None
+) -> dict[str, tuple[NDArray, NDArray]]:
+    """Sweep every bone at rest, parents first, each starting ``gap`` beyond its parents.
+
+    ``starts``, when given, receives each bone's ``y_start`` (see :func:`bone_profile`).
+    """
     spec = skeleton.spec
     by_joint: dict[str, list[str]] = {}
     for name, b in spec.bones.items():
@@ -160,6 +165,8 @@ def _start_offsets(skeleton: Skeleton, edge: float) -> dict[str, tuple[NDArray, 
             )
             y_start = max(reach) + spec.gap if reach else 0.0
             out[name] = sweep_bone(b, y_start, edge)
+            if starts is not None:
+                starts[name] = y_start
     return out
 
 
@@ -194,3 +201,63 @@ def bone_surfaces(
         out[name] = poly_from_arrays(pts @ t[:3, :3].T + t[:3, 3], tri)
     log.info("bones: %d surfaces, %d triangles", len(out), sum(p.n_cells for p in out.values()))
     return out
+
+
+def _inside(bone: BoneSpec, y_start: float, edge: float, x: NDArray) -> NDArray[np.bool_]:
+    """Which rest-frame points lie inside a bone's swept surface (its profile, exactly)."""
+    y, w = bone_profile(bone, y_start, edge)
+    y = np.concatenate([[y_start], y, [bone.length + bone.head[1]]])
+    w = np.vstack([[0.0, 0.0], w, [0.0, 0.0]])
+    u = (x - bone.start) @ bone.frame
+    wx, wz = np.interp(u[:, 1], y, w[:, 0]), np.interp(u[:, 1], y, w[:, 1])
+    r = (u[:, 0] / np.maximum(wx, 1e-12)) ** 2 + (u[:, 2] / np.maximum(wz, 1e-12)) ** 2
+    return (u[:, 1] > y_start) & (u[:, 1] < y[-1]) & (r < 1.0)
+
+
+def joint_clearance(
+    skeleton: Skeleton,
+    joint: str,
+    steps: int = 7,
+    edge: float = 0.0005,
+) -> tuple[float, dict[str, float]]:
+    """Smallest distance between the bones a joint separates, over its range of motion.
+
+    The bone the joint carries is turned over a grid of its flexion (and pivot) angles,
+    ``steps`` values from limit to limit each, the limits themselves included; at each
+    the distance of its surface points to the surfaces of the bones carried by the
+    joint's parent (the parent bone, and its siblings) is measured, negative (minus the
+    depth, roughly) where a point lies inside.
+
+    Returns
+    -------
+    clearance : float
+        The smallest distance (m) over the grid; the rig asks for ``flesh.gap``.
+    angles : dict of str to float
+        The angles (degrees) where it occurs.
+    """
+    from scipy.spatial import cKDTree
+
+    spec = skeleton.spec
+    starts: dict[str, float] = {}
+    rest = _start_offsets(skeleton, edge, starts)
+    child = [n for n, b in spec.bones.items() if b.joint == joint]
+    parent = spec.joints[joint].parent
+    others = [n for n, b in spec.bones.items() if b.joint == parent and n not in child]
+    j = spec.joints[joint]
+    names = [joint] + ([joint + "_pivot"] if j.pivot_axis is not None else [])
+    lims = skeleton.limits
+    grids = np.meshgrid(*[np.linspace(*lims[n], steps) for n in names], indexing="ij")
+    trees = {o: cKDTree(rest[o][0]) for o in others}
+    best, where = np.inf, {}
+    for values in zip(*(g.ravel() for g in grids)):
+        angles = dict(zip(names, (float(v) for v in values)))
+        tf = skeleton.forward_kinematics(angles)
+        for c in child:
+            x = rest[c][0] @ tf[c][:3, :3].T + tf[c][:3, 3]
+            for o in others:
+                d = trees[o].query(x)[0]
+                inside = _inside(spec.bones[o], starts[o], edge, x)
+                d = np.where(inside, -d, d).min()
+                if d < best:
+                    best, where = float(d), angles
+    return best, where

@@ -15,13 +15,15 @@ import logging
 import time
 from pathlib import Path
 
+from contact.bones import joint_clearance
+from contact.errors import RigError
 from contact.hand import HAND_DIR, RESOLUTIONS, load_hand
 from contact.handbuild import COARSE, FINE, build_hand, hand_report, write_hand
 from contact.handchecks import finger_widths
 from contact.handmesh import joint_pairs, open_joints
 from contact.handplot import SIDE_VIEW, render_hand
 from contact.metaballs import skin_surface
-from contact.skeleton import load_skeleton
+from contact.skeleton import Skeleton, load_skeleton
 
 log = logging.getLogger("meshes.build")
 
@@ -52,6 +54,25 @@ def _rig_numbers(directory: Path) -> dict:
         "skin_volume_cm3": round(skin.volume * 1e6, 1),
         "bone_lengths_mm": {k: round(v * 1e3, 1) for k, v in skeleton.bone_lengths().items()},
     }
+
+
+def check_clearance(skeleton: Skeleton) -> dict[str, float]:
+    """Smallest bone gap of every joint over its range of motion (mm).
+
+    Raises :class:`RigError` below the rig's ``flesh.gap`` (see
+    :func:`contact.bones.joint_clearance`).
+    """
+    out = {}
+    gap = skeleton.spec.gap
+    for joint in skeleton.joint_names:
+        clearance, at = joint_clearance(skeleton, joint, steps=7, edge=0.0008)
+        out[joint] = round(clearance * 1e3, 2)
+        if clearance < 0.98 * gap:
+            raise RigError(
+                f"joint {joint}: its bones come {clearance * 1e3:.2f} mm apart at {at}, the "
+                f"rig asks for {gap * 1e3:.2f} mm over the whole range of motion"
+            )
+    return out
 
 
 def pictures(directory: Path) -> None:
@@ -114,6 +135,7 @@ def main(argv: list[str] | None = None) -> None:
     report_path = args.dir / "quality.json"
     report = json.loads(report_path.read_text()) if report_path.is_file() else {}
     report["rig"] = _rig_numbers(args.dir)
+    report["rig"]["joint_clearance_mm"] = check_clearance(skeleton)
     for res in (r for r in (COARSE, FINE) if r.name in args.resolution):
         t0 = time.perf_counter()
         hand, timings = build_hand(skeleton, res)
