@@ -498,7 +498,9 @@ class JLDMap:
         fade = np.where(deep, 1.0 - smoothstep((r - _WEB[0]) / (_WEB[1] - _WEB[0])), 1.0)
         infl[~own] *= np.repeat(fade, nray - 1)
         w = infl / infl.sum(1, keepdims=True)
-        w[w < 1e-4] = 0.0
+        # drop the negligible weights continuously (a cut at 1e-4 jumps by 1e-4 of the
+        # difference between two rays' mappings, microns where they differ by centimetres)
+        w = np.maximum(w - 1e-4 * w.max(axis=1, keepdims=True), 0.0)
         w /= w.sum(1, keepdims=True)
         # a hub point is mapped by the rays only (its own ray too); others add neighbours
         rows, cols = np.nonzero(w * (~own | hub[:, None]))
@@ -537,8 +539,12 @@ class JLDMap:
         low = np.minimum(w_own, w_nb)
         lead = np.clip(low - np.maximum(other[rr, second], 0.0), 0.0, None) / np.maximum(low, _EPS)
         lead *= 4.0 * w_own * w_nb / np.maximum((w_own + w_nb) ** 2, _EPS)
-        # none on the carpus: it fades in along the metacarpals' first fifth
-        lead *= np.where(depth[own_seg] == 0, smoothstep(own_r / 0.2), 1.0)
+        # none on the carpus: it fades in along the metacarpals' first fifth, by the mean
+        # ratio on the two segments (the same seen from either ray: continuous where the
+        # proximal assignment switches from one metacarpal to the other)
+        nb_r = ploc["ratio"][np.maximum(prow[rr, top], 0)]
+        r_pair = np.where(prow[rr, top] >= 0, 0.5 * (own_r + nb_r), own_r)
+        lead *= np.where(depth[own_seg] == 0, smoothstep(r_pair / 0.2), 1.0)
         has = (w_nb > 0.0) & (lead > 0.0)
         nb_row = prow[has, top[has]]
         idx, sp, lead, d_rays = idx[has], own_seg[has], lead[has], d_rays[has]
