@@ -665,8 +665,9 @@ def _notes(rows: list[dict]) -> str:
             "each algorithm's iterates met the master surface):"
         )
         lines += [
-            f"- {r['scene']}, E ratio {r['ratio']:g}, {r['mesh']}, press {r['press']:g}: "
-            f"{r['variant']}: {r['force_vs_cs_pct']:+.1f} %"
+            f"- {r['study']}: {r['scene']}, E ratio {r['ratio']:g}, {r['mesh']}, press "
+            f"{r['press']:g}: {r['variant']}: {r['force_vs_cs_pct']:+.1f} % ("
+            f"{r['iterations']} iterations, penetration / cell {r['penetration_ratio']:.1e})"
             for r in off
         ]
     deep = [r for r in rows if r["converged"] and r["penetration_ratio"] > 1e-3]
