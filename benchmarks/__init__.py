@@ -22,4 +22,5 @@ BENCHMARKS = (
     "iteration",
     "frame",
     "posing",
+    "sfepy_hertz",
 )
