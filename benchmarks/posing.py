@@ -11,6 +11,11 @@ fraction of its limits. For each fraction the table gives the poses that invert 
 tetrahedron (and of those, the ones where only tetrahedra whose four nodes are fixed to
 bones invert: no mapping of the free flesh can save those), the joints blamed, and the
 smallest tetrahedron quality ``6 sqrt(2) V / l_rms^3`` of the poses that do not invert.
+
+The diagnostic columns say why poses would invert without the relaxer: the poses where
+the JLD mapping alone inverts a tetrahedron, the joints whose areas hold those tetrahedra
+(the zone joint of most of their nodes) and what kind they are: on the skin (a node on
+the outer skin), on a bone (a node fixed to a bone, none on the skin) or inner.
 """
 
 from __future__ import annotations
@@ -22,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from contact.hand import load_hand
-from contact.posing import HandPoser, tet_quality
+from contact.posing import HandPoser, tet_quality, tet_volumes
 
 from ._common import (
     Column,
@@ -59,6 +64,9 @@ CSV_KEYS = [
     "max_s",
     "rest_quality",
     "blamed",
+    "jld_inverted_poses",
+    "jld_where",
+    "jld_kinds",
 ]
 COLUMNS = (
     Column("resolution", "mesh"),
@@ -70,6 +78,13 @@ COLUMNS = (
     Column("mean_s", "pose a frame, mean (s)", ".3f"),
     Column("max_s", "pose a frame, max (s)", ".3f"),
     Column("blamed", "joints blamed"),
+)
+DIAG_COLUMNS = (
+    Column("resolution", "mesh"),
+    Column("fraction", "fraction of limits", ".2f"),
+    Column("jld_inverted_poses", "poses the JLD mapping alone inverts"),
+    Column("jld_where", "their inverted tets by joint area (share)"),
+    Column("jld_kinds", "skin / bone / inner tets"),
 )
 TIME_COLUMNS = (
     Column("resolution", "mesh"),
@@ -115,11 +130,26 @@ def sample_range(poser: HandPoser, fraction: float, n_random: int, seed: int = 0
         {n: rng.uniform(fraction * lo, fraction * hi) for n, (lo, hi) in limits.items()}
         for _ in range(n_random)
     ]
-    inverted = bone = 0
+    inverted = bone = jld_bad = 0
     worst = np.inf
     blamed: Counter[str] = Counter()
+    where: Counter[str] = Counter()
+    kinds: Counter[str] = Counter()
+    skin = np.zeros(hand.flesh.n_points, dtype=bool)
+    skin[np.unique(hand.skin_faces.faces["triangle"])] = True
+    zone = poser.flesh_map.zone_joint
+    joints = hand.skeleton.joint_names
     times = []
     for angles in poses:
+        jld = hand.flesh.points + poser.flesh_map.displacement(angles)
+        bad = np.flatnonzero(tet_volumes(jld, tets) <= 0.0)
+        if len(bad):
+            jld_bad += 1
+            for t in tets[bad]:
+                z = zone[t][zone[t] >= 0]
+                where[joints[np.bincount(z).argmax()] if len(z) else "buffer"] += 1
+                on_bone = (hand.bone_id[t] >= 0).any()
+                kinds["skin" if skin[t].any() else "bone" if on_bone else "inner"] += 1
         t0 = time.perf_counter()
         pose = poser.pose(angles, check=False)
         times.append(time.perf_counter() - t0)
@@ -137,6 +167,13 @@ def sample_range(poser: HandPoser, fraction: float, n_random: int, seed: int = 0
         "mean_s": float(np.mean(times)),
         "max_s": float(np.max(times)),
         "blamed": ", ".join(f"{j} {c}" for j, c in blamed.most_common(4)),
+        "jld_inverted_poses": jld_bad,
+        "jld_where": ", ".join(
+            f"{j} {c / max(where.total(), 1):.0%}" for j, c in where.most_common(4)
+        ),
+        "jld_kinds": " / ".join(
+            f"{kinds[k] / max(kinds.total(), 1):.0%}" for k in ("skin", "bone", "inner")
+        ),
     }
 
 
@@ -223,9 +260,20 @@ def _write_report(folder: Path, info: dict, rows: list, timing: list, quick: boo
             "quality: "
             + ", ".join(f"{k} {v:.4f}" for k, v in rest.items())
             + ". A frame: the JLD mapping, then the relaxation of the free nodes around "
-            "the tetrahedra it degrades (contact.posing.FleshRelaxer); the time grows "
-            "with the degraded region (deep flexions). The joints are open (no "
-            "tetrahedron tied to both bones of a joint).",
+            "the tetrahedra it degrades (contact.posing.FleshRelaxer, a projected Newton "
+            "method on an untangling energy); the time grows with the degraded region "
+            "(deep flexions). The joints are open (no tetrahedron tied to both bones of "
+            "a joint) and every joint keeps its bones at least 1 mm apart over its range "
+            "(contact.bones.joint_clearance).",
+        ),
+        (
+            "Why poses would invert: the JLD mapping alone",
+            markdown_table(rows, DIAG_COLUMNS)
+            + "\n\nThe same poses mapped by the JLD mapping alone (no relaxation). A "
+            "tetrahedron's joint area: the zone joint of most of its nodes (the joint "
+            "whose proximal or distal area holds them; buffer: rigid with a segment). "
+            "Kinds: with a node on the outer skin; else with a node fixed to a bone; "
+            "else inner.",
         ),
     ]
     write_markdown(folder / "posing.md", "Posing the hand: time and quality", info, sections)
