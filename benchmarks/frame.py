@@ -162,7 +162,7 @@ def _row(
         "converged": "yes" if res.converged else res.stop_reason,
         "back_solves": sum(b.solver.n_back_solves - before[b.name][0] for b in bodies),
         "partial_solves": sum(b.solver.n_partial_solves - before[b.name][1] for b in bodies),
-        "marked": sum(int(b.solver._fact.marked.size) for b in bodies),
+        "marked": sum(int(b.solver.marked.size) for b in bodies),
         "geometry_s": geo,
         "contact_s": con,
         "factor_s": fac,

@@ -231,12 +231,12 @@ class SfepyHertz:
     @property
     def radius_error(self) -> float:
         """Relative error of the measured contact radius against Hertz."""
-        return self.patch.contact_radius / self.hertz.contact_radius - 1.0
+        return self.patch.errors(self.hertz)[0]
 
     @property
     def pressure_error(self) -> float:
         """Relative error of the measured peak pressure against Hertz."""
-        return self.patch.peak_pressure / self.hertz.peak_pressure - 1.0
+        return self.patch.errors(self.hertz)[1]
 
 
 @dataclass

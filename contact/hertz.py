@@ -319,6 +319,13 @@ class ContactPatch:
     fit_radius_lumped: float
     fit_nodes: int
 
+    def errors(self, hertz: HertzSolution) -> tuple[float, float]:
+        """Relative errors of the contact radius and the peak pressure against ``hertz``."""
+        return (
+            self.contact_radius / hertz.contact_radius - 1.0,
+            self.peak_pressure / hertz.peak_pressure - 1.0,
+        )
+
 
 def measure_contact_patch(
     mesh: fem.Mesh,
@@ -481,12 +488,12 @@ class HertzCheck:
     @property
     def radius_error(self) -> float:
         """Relative error of the measured contact radius against Hertz."""
-        return self.patch.contact_radius / self.hertz.contact_radius - 1.0
+        return self.patch.errors(self.hertz)[0]
 
     @property
     def pressure_error(self) -> float:
         """Relative error of the measured peak pressure against Hertz."""
-        return self.patch.peak_pressure / self.hertz.peak_pressure - 1.0
+        return self.patch.errors(self.hertz)[1]
 
 
 def _symmetry_dofs(mesh: fem.Mesh, center: NDArray, tol: float) -> NDArray[np.int64]:

@@ -417,22 +417,22 @@ class HertzBodiesCheck:
     @property
     def radius_error(self) -> float:
         """Relative error of the top sphere's contact radius against Hertz."""
-        return self.patch.contact_radius / self.hertz.contact_radius - 1.0
+        return self.patch.errors(self.hertz)[0]
 
     @property
     def pressure_error(self) -> float:
         """Relative error of the top sphere's peak pressure against Hertz."""
-        return self.patch.peak_pressure / self.hertz.peak_pressure - 1.0
+        return self.patch.errors(self.hertz)[1]
 
     @property
     def radius_error_other(self) -> float:
         """The same from the other body's nodal forces."""
-        return self.patch_other.contact_radius / self.hertz.contact_radius - 1.0
+        return self.patch_other.errors(self.hertz)[0]
 
     @property
     def pressure_error_other(self) -> float:
         """The same from the other body's nodal forces."""
-        return self.patch_other.peak_pressure / self.hertz.peak_pressure - 1.0
+        return self.patch_other.errors(self.hertz)[1]
 
 
 def _measure(

@@ -434,7 +434,6 @@ class _Frame:
         rows: ContactRows,
         lam: NDArray[np.float64],
         states: dict[str, BodyState],
-        t0: float,
     ) -> FrameResult:
         """Assemble the frame's result from the last state."""
         e = self.matrices(rows) if len(rows) else {}
@@ -465,7 +464,7 @@ class _Frame:
         if over and converged:
             converged = False
             stop = _limit_reason(over)
-        self.timings["total"] = time.perf_counter() - t0
+        self.timings["total"] = time.perf_counter() - self.t0
         names = np.array([p.name for p in self.pairs], dtype=object)
         return FrameResult(
             converged=converged,
@@ -605,7 +604,6 @@ def solve_frame(
 
 
 def _contact_space(frame: _Frame) -> FrameResult:
-    t0 = frame.t0
     st = frame.settings
     space = ContactSpace(frame.bodies)
     u = {b.name: np.zeros((b.mesh.n_points, 3)) for b in frame.bodies}
@@ -665,12 +663,10 @@ def _contact_space(frame: _Frame) -> FrameResult:
         rows=solved,
         lam=lam,
         states=states,
-        t0=t0,
     )
 
 
 def _seed(frame: _Frame, dirichlet: str) -> FrameResult:
-    t0 = frame.t0
     st = frame.settings
     names = [b.name for b in frame.bodies]
     if dirichlet not in names:
@@ -786,5 +782,4 @@ def _seed(frame: _Frame, dirichlet: str) -> FrameResult:
         rows=solved,
         lam=lam,
         states=states,
-        t0=t0,
     )

@@ -411,14 +411,7 @@ class TriangleSurface:
     @cached_property
     def vertex_normals(self) -> NDArray[np.float64]:
         """Angle-weighted pseudo-normals of the nodes, ``(n, 3)`` (zero for unused nodes)."""
-        x = self.points[self.triangles]
-        out = np.zeros_like(self.points)
-        for i in range(3):
-            u = _unit(x[:, (i + 1) % 3] - x[:, i])
-            v = _unit(x[:, (i + 2) % 3] - x[:, i])
-            angle = np.arctan2(np.linalg.norm(np.cross(u, v), axis=1), np.einsum("ij,ij->i", u, v))
-            np.add.at(out, self.triangles[:, i], angle[:, None] * self.face_normals)
-        return _unit(out)
+        return self.vertex_normals_at(np.arange(self.n_points))
 
     def _check_query(self, x: ArrayLike) -> NDArray[np.float64]:
         q = np.asarray(x, dtype=np.float64)

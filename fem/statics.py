@@ -257,6 +257,11 @@ class StaticSolver:
         return self._to_factor
 
     @property
+    def marked(self) -> NDArray[np.int64]:
+        """Rows of :attr:`factored_matrix` marked for partial solves (see :meth:`mark`)."""
+        return self._marks
+
+    @property
     def factored(self) -> bool:
         """Whether the stiffness is factored (a lazy solver is not until first used)."""
         return self._factorization is not None
