@@ -56,6 +56,13 @@ RELAXATIONS = ("none", "fixed", "aitken")
 #: Once a contact set repeats, contacts are released only when they pull by more than this
 #: fraction of the largest contact force (a second repetition stops the frame: "cycling").
 CYCLE_RELEASE = 1e-4
+#: A node in contact found inside another facet of its master, whose normal differs from
+#: its rows' by more than arccos of this (about 8 degrees), is in a concave corner: it
+#: keeps its row and gets one for that facet too, up to ``CORNER_ROWS`` rows in all.
+CORNER_COS = 0.99
+CORNER_ROWS = 3
+#: Times a contact row may be linearised again on the same facet in one frame.
+RELINEARISE = 8
 
 
 @dataclass(frozen=True)
@@ -170,6 +177,7 @@ class _Frame:
         self._force = 0.0
         self.broken = 0
         self.renewed: dict[int, dict[int, int]] = {}
+        self.relinearised: dict[int, dict[int, int]] = {}
         self._loads = max(float(np.linalg.norm(b.loads)) for b in self.bodies)
         self.extent = float(np.ptp(np.vstack([b.mesh.points for b in self.bodies]), axis=0).max())
         self.timings = {"geometry": 0.0, "contact solve": 0.0, "bodies": 0.0, "mortar": 0.0}
@@ -353,7 +361,7 @@ class _Frame:
             # a contact whose node has moved away from its master by half an element (or
             # out of reach) no longer has a valid linearised row: the body slid off it
             far = active & (p.gap > 0.5 * self.local[pair.slave.name][p.nodes])
-            self.broken += int(far.sum()) + int(mine.sum() - active.sum())
+            self.broken += int(far.sum()) + np.setdiff1d(rows.node[mine], p.nodes).size
             fresh = ~active & ~np.isin(p.nodes, dropped.node[dropped.pair == i])
             depth = max(depth, float(np.max(-p.gap, initial=0.0)))
             hit = fresh & (_first(p.gap, tol) if touching else (p.gap < -tol))
@@ -362,22 +370,38 @@ class _Frame:
                 # node on node: a slave node whose closest point is a master vertex that
                 # is itself in contact the other way round would repeat that contact's row
                 vertex = p.weights.max(axis=1) >= 1.0 - 1e-9
-                corner = p.facet[np.arange(p.nodes.size), p.weights.argmax(axis=1)]
-                hit &= ~(vertex & np.isin(corner, rows.node[rows.pair == j]))
+                tip = p.facet[np.arange(p.nodes.size), p.weights.argmax(axis=1)]
+                hit &= ~(vertex & np.isin(tip, rows.node[rows.pair == j]))
             stale = active & (p.gap < -tol) & (not pair.rigid)
-            if stale.any():
-                # a node renewed twice already keeps its row: between two facets that meet
-                # at an edge, renewals would alternate for ever
-                where = np.flatnonzero(stale)
-                seen = self.renewed.setdefault(i, {})
-                for w in where:
-                    n = int(p.nodes[w])
-                    seen[n] = seen.get(n, 0) + 1
-                    if seen[n] > 2:
-                        stale[w] = False
-            if stale.any():
-                rows = rows.select(~(mine & np.isin(rows.node, p.nodes[stale])))
-                hit |= stale
+            drop = np.zeros(len(rows), dtype=bool)
+            for w in np.flatnonzero(stale):
+                n = int(p.nodes[w])
+                own = np.flatnonzero(mine & (rows.node == n))
+                facet = set(p.facet[w].tolist())
+                same = any(set(f[f >= 0].tolist()) == facet for f in rows.m_nodes[own])
+                cos = float((rows.normal[own] @ p.normal[w]).max())
+                if not same and cos < CORNER_COS and own.size < CORNER_ROWS:
+                    # a concave edge or corner: held on one facet, the node is inside the
+                    # next one, and the other way round. Outside a concave corner is the
+                    # intersection of its facets' half-spaces: it keeps both rows (one
+                    # that pulls is released as any other)
+                    continue
+                # the row is renewed: linearised again at the facet's current place and
+                # normal (a soft master's facets turn under the load), or on the facet
+                # the node has slid onto. A node that changed facets twice already keeps
+                # its row (on a flat edge, renewals would alternate for ever); one renewed
+                # on the same facet RELINEARISE times too (the turning has not settled).
+                # Nodes left inside make the frame not converged (:meth:`result`).
+                limit, book = (RELINEARISE, self.relinearised) if same else (2, self.renewed)
+                seen = book.setdefault(i, {})
+                seen[n] = seen.get(n, 0) + 1
+                if seen[n] > limit:
+                    stale[w] = False
+                else:
+                    drop[own[np.argmax(rows.normal[own] @ p.normal[w])]] = True
+            if drop.any():
+                rows = rows.select(~drop)
+            hit |= stale
             if hit.any():
                 rows = rows.extended(self.pairs, i, p.select(hit))
                 changed += int(hit.sum())
@@ -453,13 +477,28 @@ class _Frame:
         u = {b.name: states[b.name].u.reshape(-1, 3) for b in self.bodies}
         pens = self.measure(u)
         depth = max((float(np.max(-p.gap, initial=0.0)) for p in pens), default=0.0)
-        ratio = max(
-            (
-                float(np.max(-p.gap / self.local[pair.slave.name][p.nodes], initial=0.0))
-                for pair, p in zip(self.pairs, pens, strict=True)
-            ),
-            default=0.0,
-        )
+        ratios = [
+            -p.gap / self.local[pair.slave.name][p.nodes] for pair, p in zip(self.pairs, pens)
+        ]
+        ratio = max((float(np.max(r, initial=0.0)) for r in ratios), default=0.0)
+        if converged:
+            # contacts whose rows could not be renewed any more may still penetrate: a
+            # frame is converged only where every node-to-surface pair is within the
+            # tolerance (mortar pairs close weighted gaps, not nodal ones)
+            worst = [
+                (float(r.max()), pair.name, int(p.nodes[np.argmax(r)]))
+                for i, (pair, p, r) in enumerate(zip(self.pairs, pens, ratios))
+                if i not in self.mortar and r.size
+            ]
+            deepest = max(worst, default=(0.0, "", -1))
+            if deepest[0] > self.settings.gap_tolerance:
+                converged = False
+                stop = (
+                    f"penetration left: node {deepest[2]} of pair {deepest[1]} is inside by "
+                    f"{deepest[0]:.3g} of its element size (tolerance "
+                    f"{self.settings.gap_tolerance:g}); its contact row was renewed as often "
+                    "as allowed"
+                )
         over = self.over_limit(supports)
         if over and converged:
             converged = False
@@ -551,8 +590,11 @@ def _with_support(rec: IterationRecord, supports: dict[str, dict[str, NDArray]])
 
 
 def _key(rows: ContactRows) -> bytes:
-    k = np.column_stack([rows.keys, rows.m_nodes])
-    return k[np.lexsort(k.T[::-1])].tobytes() if len(k) else b""
+    """The contact set's identity: its rows, in any order (a renewed row is another row)."""
+    if not len(rows):
+        return b""
+    k = np.column_stack([rows.keys, rows.m_nodes, rows.normal.view(np.int64)])
+    return k[np.lexsort(k.T[::-1])].tobytes()
 
 
 def solve_frame(
