@@ -191,47 +191,66 @@ class _Frame:
     def mark_zones(self) -> None:
         """Mark each body's contact zone for partial solves, before it is factored.
 
-        The zone of a pair: its slave nodes closer to the master than one element plus
-        half the pair's deepest overlap (for Hertz, every node of the final patch
-        overlaps by half the deepest at least), and the master's contact nodes within
-        that distance of them. Rows there get their compliance from partial solves
-        (:meth:`fem.StaticSolver.mark`); a row outside (the bodies moved further) costs
-        a full back-solve, nothing else. Each marked DOF makes the factorisation dearer
-        (the zone is ordered last): the zone is kept tight.
+        The zone of a pair: its slave nodes closer to the master than half the pair's
+        deepest overlap plus their own element size (for Hertz, every node of the final
+        patch overlaps by half the deepest at least; the element lets the patch grow by
+        one ring), and the master's contact nodes as close to those. Rows there get their
+        compliance from partial solves (:meth:`fem.StaticSolver.mark`); a row outside
+        (the bodies moved further) costs a full back-solve, nothing else. Each marked DOF
+        makes the factorisation dearer (the zone is ordered last): the zone is kept
+        tight, and where it would pass :data:`fem.statics.MARK_LIMIT` DOFs, its nodes
+        nearest the master are marked.
         """
         from scipy.spatial import cKDTree
 
         t = time.perf_counter()
         u = {b.name: np.zeros((b.mesh.n_points, 3)) for b in self.bodies}
-        zone: dict[str, list[NDArray[np.int64]]] = {b.name: [] for b in self.bodies}
+        # candidate nodes of each body's zone, with how near they are (smaller first)
+        zone: dict[str, list[tuple[NDArray[np.int64], NDArray[np.float64]]]] = {
+            b.name: [] for b in self.bodies
+        }
         for i, pair in enumerate(self.pairs):
             if i in self.mortar:
                 cand = self.mortar[i]
                 sides = ((pair.slave, cand.rows.s_nodes), (pair.master, cand.rows.m_nodes))
                 for body, nodes in sides:
-                    zone[body.name].append(np.unique(nodes[nodes >= 0]))  # type: ignore[union-attr]
+                    n = np.unique(nodes[nodes >= 0])  # type: ignore[union-attr]
+                    zone[body.name].append((n, np.full(n.size, -np.inf)))
                 continue
             wide = 3.0 * self.margin
             p = self.measure_pair(i, u, wide)
             depth = float(np.max(-p.gap, initial=0.0))
-            reach = self.margin + 0.5 * depth
-            if reach > wide:
-                p = self.measure_pair(i, u, reach)
-            near = p.nodes[p.gap < reach]
+            reach = 0.5 * depth + self.local[pair.slave.name][p.nodes]
+            if reach.size and reach.max() > wide:
+                p = self.measure_pair(i, u, float(reach.max()))
+                reach = 0.5 * depth + self.local[pair.slave.name][p.nodes]
+            sel = p.gap < reach
+            near, gap, reach = p.nodes[sel], p.gap[sel], reach[sel]
             if not near.size:
                 continue
-            zone[pair.slave.name].append(near)
+            zone[pair.slave.name].append((near, gap))
             if not pair.rigid:
                 master: ElasticBody = pair.master  # type: ignore[assignment]
                 used = master.contact_nodes
                 tree = cKDTree(pair.slave.mesh.points[near])
-                d, _ = tree.query(master.mesh.points[used], distance_upper_bound=reach)
-                zone[master.name].append(used[np.isfinite(d)])
+                d, k = tree.query(master.mesh.points[used], distance_upper_bound=reach.max())
+                ok = np.isfinite(d)
+                ok[ok] = d[ok] <= reach[k[ok]]  # within the nearest zone node's reach
+                zone[master.name].append((used[ok], d[ok] + gap[k[ok]]))
         for b in self.bodies:
             if zone[b.name] and not b.solver.factored:
-                nodes = np.unique(np.concatenate(zone[b.name]))
-                covered = b.solver.mark(fem.node_dofs(nodes))
-                log.debug("%s: %d contact-zone nodes marked: %s", b.name, nodes.size, covered)
+                nodes, near = (np.concatenate(x) for x in zip(*zone[b.name], strict=True))
+                order = np.argsort(near, kind="stable")
+                nodes = nodes[order][np.sort(np.unique(nodes[order], return_index=True)[1])]
+                limit = min(fem.statics.MARK_LIMIT, b.solver.factored_matrix.shape[0] // 2) // 3
+                covered = b.solver.mark(fem.node_dofs(nodes[:limit]))
+                log.debug(
+                    "%s: %d of %d contact-zone nodes marked: %s",
+                    b.name,
+                    min(limit, nodes.size),
+                    nodes.size,
+                    covered,
+                )
         self.timings["geometry"] += time.perf_counter() - t
         before = {b.name: b.solver.factor_time for b in self.bodies}
         for b in self.bodies:
