@@ -171,6 +171,33 @@ class ElasticBody:
         """Sorted nodes of the contact faces."""
         return self.contact_faces.nodes
 
+    def mark_zone(self, nodes: ArrayLike, nearness: ArrayLike) -> int:
+        """Mark a contact zone for partial solves, if the body is not factored yet.
+
+        Parameters
+        ----------
+        nodes : array_like of int
+            Nodes of the zone (repeats allowed).
+        nearness : array_like of float
+            How near each is to contact (smaller first: a gap, m); where the zone would
+            pass the solver's limit (:data:`fem.statics.MARK_LIMIT` DOFs, half the
+            factored DOFs), the nearest nodes are marked.
+
+        Returns
+        -------
+        int
+            Nodes marked (0 when already factored, or the backend has no partial solves).
+        """
+        nodes = np.asarray(nodes, dtype=np.int64).ravel()
+        if self.solver.factored or not nodes.size:
+            return 0
+        order = np.argsort(np.asarray(nearness, dtype=np.float64).ravel(), kind="stable")
+        nodes = nodes[order]
+        nodes = nodes[np.sort(np.unique(nodes, return_index=True)[1])]  # nearest first
+        limit = min(fem.statics.MARK_LIMIT, self.solver.factored_matrix.shape[0] // 2) // 3
+        nodes = nodes[:limit]
+        return int(nodes.size) if self.solver.mark(fem.node_dofs(nodes)) else 0
+
     def support_forces(self, reactions: NDArray[np.float64]) -> dict[str, NDArray[np.float64]]:
         """Total reaction force ``(3,)`` on each support group (N), from nodal reactions."""
         r = np.asarray(reactions, dtype=np.float64).reshape(-1, 3)

@@ -44,6 +44,7 @@ from .errors import ContactError
 from .geometry import Plane
 from .pairs import ContactPair, ContactRows, Penetrations, measure, mortar_candidates
 from .results import FrameResult, IterationRecord
+from .zone import master_zone, slave_zone
 
 __all__ = ["ALGORITHMS", "CYCLE_RELEASE", "RELAXATIONS", "ContactSettings", "solve_frame"]
 
@@ -191,18 +192,11 @@ class _Frame:
     def mark_zones(self) -> None:
         """Mark each body's contact zone for partial solves, before it is factored.
 
-        The zone of a pair: its slave nodes closer to the master than half the pair's
-        deepest overlap plus their own element size (for Hertz, every node of the final
-        patch overlaps by half the deepest at least; the element lets the patch grow by
-        one ring), and the master's contact nodes as close to those. Rows there get their
-        compliance from partial solves (:meth:`fem.StaticSolver.mark`); a row outside
-        (the bodies moved further) costs a full back-solve, nothing else. Each marked DOF
-        makes the factorisation dearer (the zone is ordered last): the zone is kept
-        tight, and where it would pass :data:`fem.statics.MARK_LIMIT` DOFs, its nodes
-        nearest the master are marked.
+        The zone of each pair (:mod:`contact.zone`): the expected patch and a ring around
+        it on the slave, and the master nodes those can reach, measured at rest. Rows
+        there get their compliance from partial solves (:meth:`fem.StaticSolver.mark`);
+        a row outside (the patch grew further) costs a full back-solve, nothing else.
         """
-        from scipy.spatial import cKDTree
-
         t = time.perf_counter()
         u = {b.name: np.zeros((b.mesh.n_points, 3)) for b in self.bodies}
         # candidate nodes of each body's zone, with how near they are (smaller first)
@@ -220,37 +214,31 @@ class _Frame:
             wide = 3.0 * self.margin
             p = self.measure_pair(i, u, wide)
             depth = float(np.max(-p.gap, initial=0.0))
-            reach = 0.5 * depth + self.local[pair.slave.name][p.nodes]
-            if reach.size and reach.max() > wide:
-                p = self.measure_pair(i, u, float(reach.max()))
-                reach = 0.5 * depth + self.local[pair.slave.name][p.nodes]
-            sel = p.gap < reach
-            near, gap, reach = p.nodes[sel], p.gap[sel], reach[sel]
+            if depth + self.margin > wide:  # deep overlap: its ring too
+                p = self.measure_pair(i, u, depth + self.margin)
+            slave = pair.slave
+            first = _first(p.gap, self.tol(pair, p.nodes))  # as new_rows takes it
+            local = self.local[slave.name][p.nodes]
+            sel = slave_zone(slave.mesh.points, p.nodes, p.gap, first, local)
+            near, gap = p.nodes[sel], p.gap[sel]
             if not near.size:
                 continue
-            zone[pair.slave.name].append((near, gap))
+            zone[slave.name].append((near, gap))
             if not pair.rigid:
                 master: ElasticBody = pair.master  # type: ignore[assignment]
                 used = master.contact_nodes
-                tree = cKDTree(pair.slave.mesh.points[near])
-                d, k = tree.query(master.mesh.points[used], distance_upper_bound=reach.max())
-                ok = np.isfinite(d)
-                ok[ok] = d[ok] <= reach[k[ok]]  # within the nearest zone node's reach
-                zone[master.name].append((used[ok], d[ok] + gap[k[ok]]))
-        for b in self.bodies:
-            if zone[b.name] and not b.solver.factored:
-                nodes, near = (np.concatenate(x) for x in zip(*zone[b.name], strict=True))
-                order = np.argsort(near, kind="stable")
-                nodes = nodes[order][np.sort(np.unique(nodes[order], return_index=True)[1])]
-                limit = min(fem.statics.MARK_LIMIT, b.solver.factored_matrix.shape[0] // 2) // 3
-                covered = b.solver.mark(fem.node_dofs(nodes[:limit]))
-                log.debug(
-                    "%s: %d of %d contact-zone nodes marked: %s",
-                    b.name,
-                    min(limit, nodes.size),
-                    nodes.size,
-                    covered,
+                ok, dist = master_zone(
+                    slave.mesh.points[near],
+                    gap,
+                    self.local[slave.name][near],
+                    master.mesh.points[used],
                 )
+                zone[master.name].append((used[ok], dist[ok]))
+        for b in self.bodies:
+            if zone[b.name]:
+                nodes, near = (np.concatenate(x) for x in zip(*zone[b.name], strict=True))
+                marked = b.mark_zone(nodes, near)
+                log.debug("%s: %d contact-zone nodes marked", b.name, marked)
         self.timings["geometry"] += time.perf_counter() - t
         before = {b.name: b.solver.factor_time for b in self.bodies}
         for b in self.bodies:

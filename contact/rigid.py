@@ -26,6 +26,7 @@ from .body import ElasticBody
 from .errors import ContactError
 from .geometry import Plane
 from .results import ContactResult, IterationRecord
+from .zone import slave_zone
 
 __all__ = ["solve_rigid_contact"]
 
@@ -92,6 +93,12 @@ def solve_rigid_contact(
     if g0 is None:
         g0 = np.zeros((cand.size, 0))
     normals = np.array([p.normal for p in planes]).reshape(-1, 3)
+    if g0.size:
+        # the contact zone, for partial solves (:mod:`contact.zone`)
+        zone = np.zeros(cand.size, dtype=bool)
+        for g in g0.T:  # each plane's
+            zone |= slave_zone(x, cand, g, g < tol_gap[cand], local[cand])
+        body.mark_zone(cand[zone], g0.min(axis=1)[zone])
 
     # step 2: nodes behind a plane, or touching it within the tolerance, are repelled
     # onto it and prescribed there: (k, 2) pairs of candidate index and plane

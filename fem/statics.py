@@ -262,6 +262,12 @@ class StaticSolver:
         return self._marks
 
     @property
+    def marked_dofs(self) -> NDArray[np.int64]:
+        """Global DOFs marked for partial solves, sorted (see :meth:`mark`)."""
+        inner = self._inner if self.free_body else np.arange(self.free.size)
+        return np.sort(self.free[inner[self._marks]])
+
+    @property
     def factored(self) -> bool:
         """Whether the stiffness is factored (a lazy solver is not until first used)."""
         return self._factorization is not None

@@ -95,3 +95,32 @@ def test_tributary_areas_sum_to_surface_area():
     assert a.sum() == pytest.approx(2 * (2 + 3 + 6))
     tets = fem.box_mesh((1.0, 2.0, 3.0), (2, 2, 3), element="tetra")
     assert tributary_areas(tets.points, tets.boundary.faces).sum() == pytest.approx(22.0)
+
+
+@pytest.mark.skipif("pardiso" not in fem.linsolve.BACKENDS, reason="partial solves need PARDISO")
+def test_the_contact_zone_is_marked_and_its_rows_take_partial_solves(ball_mesh):
+    body, res = squeeze(ball_mesh, 0.04 * R)
+    s = body.solver
+    assert res.converged and s.n_factorizations == 1
+    # the zone (both poles' caps) was marked before the factorisation; every contact
+    # row lies in it: no back-solve beyond the six of the free ball's rigid modes
+    marked = np.unique(s.marked_dofs // 3)
+    assert np.isin(res.contact_nodes, marked).all()
+    assert s.n_partial_solves >= res.contact_nodes.size and s.n_back_solves <= 6
+    assert marked.size <= body.surface_nodes.size / 3
+    assert (np.abs(ball_mesh.points[marked, 2] - R) > 0.5 * R).all()
+
+
+@pytest.mark.skipif("pardiso" not in fem.linsolve.BACKENDS, reason="partial solves need PARDISO")
+def test_mark_zone_takes_the_nearest_nodes_up_to_the_limit(ball_mesh, monkeypatch):
+    top = np.flatnonzero(ball_mesh.points[:, 2] > 1.9 * R)
+    body = ElasticBody("ball", ball_mesh, fem.LinearElastic(E, NU), prescribed=fem.node_dofs(top))
+    nodes = np.setdiff1d(body.surface_nodes, top)
+    height = ball_mesh.points[nodes, 2]
+    monkeypatch.setattr(fem.statics, "MARK_LIMIT", 30)  # ten nodes
+    twice = np.concatenate([nodes, nodes])
+    assert body.mark_zone(twice, np.concatenate([height, height])) == 10
+    lowest = nodes[np.argsort(height, kind="stable")[:10]]
+    assert np.array_equal(body.solver.marked_dofs, np.sort(fem.node_dofs(lowest)))
+    body.solver.factorize()
+    assert body.mark_zone(nodes, height) == 0  # factored: nothing more is marked

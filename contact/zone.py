@@ -1,0 +1,95 @@
+"""The contact zone of a pair: the nodes its rows will act on, chosen before factoring.
+
+Marked DOFs (:meth:`fem.StaticSolver.mark`) are ordered last by the factorisation: a
+row on them gets its compliance from a partial solve through the factor's trailing
+block, but every marked DOF makes the factorisation dearer (that block is dense). The
+zone is therefore the expected patch and a ring around it, not every node that might
+touch: a row outside it costs one back-solve, nothing else.
+
+Where the bodies overlap, the zone is the first contact set (the rows the first solve
+needs: most of them); where they do not yet (a free ball that a plate will move onto a
+hand), the nodes within one element of the closest approach. Around it, the slave nodes
+within ``RING`` of their own element sizes, and the master's nodes that those can reach:
+within one element plus the slave node's overlap.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial import cKDTree
+
+__all__ = ["RING", "master_zone", "slave_zone"]
+
+#: Width of the ring around the expected patch, in element sizes.
+RING = 1.5
+
+
+def slave_zone(
+    points: NDArray[np.float64],
+    nodes: NDArray[np.int64],
+    gap: NDArray[np.float64],
+    first: NDArray[np.bool_],
+    local: NDArray[np.float64],
+) -> NDArray[np.bool_]:
+    """Which slave nodes are in the zone: the first contact set and a ring around it.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+        The slave body's node coordinates.
+    nodes : ndarray of int, shape (k,)
+        Slave nodes measured near the master.
+    gap : ndarray, shape (k,)
+        Their signed gaps (m), negative inside.
+    first : ndarray of bool, shape (k,)
+        Those in the first contact set.
+    local : ndarray, shape (k,)
+        Their element sizes (m).
+
+    Returns
+    -------
+    ndarray of bool, shape (k,)
+    """
+    if not nodes.size:
+        return np.zeros(0, dtype=bool)
+    core = first & (gap < 0)
+    if not core.any():  # nothing overlaps: the nodes nearest to touching
+        j = int(np.argmin(gap))
+        core = gap <= gap[j] + local[j]
+    x = points[nodes]
+    d, _ = cKDTree(x[core]).query(x, distance_upper_bound=RING * float(local.max()))
+    return core | (d <= RING * local)
+
+
+def master_zone(
+    slave_points: NDArray[np.float64],
+    gap: NDArray[np.float64],
+    local: NDArray[np.float64],
+    master_points: NDArray[np.float64],
+) -> tuple[NDArray[np.bool_], NDArray[np.float64]]:
+    """Which master nodes zone slave nodes can reach, and how near (m).
+
+    Parameters
+    ----------
+    slave_points : ndarray, shape (k, 3)
+        The zone's slave nodes.
+    gap, local : ndarray, shape (k,)
+        Their gaps and element sizes (m).
+    master_points : ndarray, shape (q, 3)
+        The master's contact nodes.
+
+    Returns
+    -------
+    within : ndarray of bool, shape (q,)
+        Master nodes within one element plus the overlap of the nearest zone node.
+    nearness : ndarray, shape (q,)
+        Distance to that node plus its gap (a gap-like measure; infinite outside).
+    """
+    reach = local + np.maximum(-gap, 0.0)
+    d, k = cKDTree(slave_points).query(master_points, distance_upper_bound=float(reach.max()))
+    ok = np.isfinite(d)
+    ok[ok] = d[ok] <= reach[k[ok]]
+    near = np.full(d.shape, np.inf)
+    near[ok] = d[ok] + gap[k[ok]]
+    return ok, near
