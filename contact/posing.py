@@ -45,6 +45,7 @@ from .skeleton import PIVOT_SUFFIX
 
 __all__ = [
     "RELAX_QUALITY",
+    "RELAX_STALL",
     "RELAX_STOP",
     "FleshRelaxer",
     "HandPoser",
@@ -60,6 +61,10 @@ RELAX_QUALITY = 0.05
 #: The relaxation stops once every tetrahedron it moves is above this fraction of that
 #: threshold (a fifth: quality 0.01 at least).
 RELAX_STOP = 0.2
+#: ... or once three Newton steps in a row lower the patch's energy by less than this
+#: fraction of it and leave as many tetrahedra inverted (stalled: typically a tetrahedron
+#: no position of its free nodes mends).
+RELAX_STALL = 1e-4
 
 
 def tet_volumes(points: ArrayLike, tets: ArrayLike) -> NDArray[np.float64]:
@@ -268,11 +273,12 @@ class FleshRelaxer:
         """
         x = np.asarray(x, dtype=np.float64)
         bad = self.degraded(x)
-        self.stats = {"iterations": 0, "passes": 0}
+        self.stats = {"iterations": 0, "passes": 0, "stalled": 0}
         if len(bad) == 0:
             return x, 0
         x = x.copy()
         moved = np.zeros(len(x), dtype=bool)
+        inverted = int((tet_volumes(x, self.tets[bad]) <= 0.0).sum())
         for k in range(self.rounds):
             nodes = np.unique(self.tets[bad])
             for _ in range(self.rings + k):
@@ -284,8 +290,11 @@ class FleshRelaxer:
             self.stats["passes"] += 1
             self._minimise(x, free)
             bad = self.degraded(x)
-            if len(bad) == 0 or not (tet_volumes(x, self.tets[bad]) <= 0.0).any():
+            left = int((tet_volumes(x, self.tets[bad]) <= 0.0).sum())
+            # done, or a wider patch did not help: what is left is reported by the caller
+            if left == 0 or (k > 0 and left >= inverted):
                 break
+            inverted = left
         return x, int(moved.sum())
 
     def _minimise(self, x: NDArray[np.float64], free: NDArray[np.int64]) -> None:
@@ -308,7 +317,8 @@ class FleshRelaxer:
         gkeep = gslot >= 0
         floor = RELAX_STOP * np.minimum(RELAX_QUALITY, 0.5 * self.rest_quality[cells])
         eps = self.delta
-        e_prev = np.inf
+        e_prev, n_prev = np.inf, len(cells)
+        stalled = 0
         for _ in range(self.maxiter):
             # Escobar's regularisation follows the most inverted tetrahedron: a gentle
             # barrier on a tangled patch, a steep one (delta -> 0) once it is untangled
@@ -335,7 +345,15 @@ class FleshRelaxer:
             # converged: nothing more to gain (a tetrahedron held down by the bones)
             if q.min() > 0.0 and -decrease < 1e-3 * e0 and e_prev - e1 < 1e-3 * e0:
                 return
-            e_prev = e1
+            # stalled: the energy no longer falls (a tetrahedron no position of the free
+            # nodes can mend, or one the patch is too small for)
+            n_inv = int((q <= 0.0).sum())
+            slow = e0 - e1 < RELAX_STALL * e0 and n_inv >= n_prev
+            stalled = stalled + 1 if slow else 0
+            if stalled >= 3:
+                self.stats["stalled"] += 1
+                return
+            e_prev, n_prev = e1, min(n_inv, n_prev)
 
 
 @dataclass(frozen=True)
