@@ -103,9 +103,10 @@ class Hand:
         """The flesh's boundary faces on the skin: the only ones that can touch a ball.
 
         The flesh's boundary also holds the bone holes and the joint cavities. A face is on
-        the skin when its centre lies within half the rig's smallest flesh thickness of the
-        skin surface the flesh was meshed from (bone holes lie a whole thickness away at
-        least); the faces found must close on themselves.
+        the skin when its centre and its three nodes lie within half the rig's smallest
+        flesh thickness of the skin surface the flesh was meshed from (bone holes lie a
+        whole thickness away at least; a joint cavity's face near the skin has a node
+        deeper in); the faces found must close on themselves.
 
         Raises
         ------
@@ -118,8 +119,12 @@ class Hand:
         bnd = self.flesh.boundary
         tri = bnd.faces.get("triangle", np.zeros((0, 3), np.int64))
         skin = TriangleSurface(*surface_arrays(self.skin), name="skin")
+        near = 0.5 * self.skeleton.spec.min_flesh
         d = skin.closest(self.flesh.points[tri].mean(axis=1)).distance
-        on = d < 0.5 * self.skeleton.spec.min_flesh
+        nodes = np.unique(tri)
+        dn = np.full(self.flesh.n_points, np.inf)
+        dn[nodes] = skin.closest(self.flesh.points[nodes]).distance
+        on = (d < near) & (dn[tri].max(axis=1) < near)
         found = TriangleSurface(self.flesh.points, tri[on], name="skin faces of the flesh")
         if not found.is_closed:
             raise MeshError(

@@ -27,6 +27,7 @@ from .handmesh import (
     open_joints,
     tetrahedralize_flesh,
 )
+from .jointgap import split_joint_gaps
 from .meshquality import quality_summary
 from .metaballs import skin_surface
 from .skeleton import Skeleton
@@ -129,6 +130,7 @@ def build_hand(skeleton: Skeleton, res: Resolution) -> tuple[Hand, dict[str, flo
     parts = np.array([spec.groups.index(b.part) for b in skeleton.bones.values()])
     flesh = fem.Mesh(mesh.points, mesh.cells, {"tetra": parts[cell_bone]})
     flesh, bone_id, cell_bone = open_joints(flesh, bone_id, cell_bone, joint_pairs(skeleton))
+    flesh, bone_id, cell_bone = split_joint_gaps(flesh, bone_id, cell_bone)
     timings["labels"] = time.perf_counter() - t0
     log.info("hand %s: %s in %s", res.name, flesh, {k: round(v, 1) for k, v in timings.items()})
     return Hand(skeleton, flesh, bone_id, cell_bone, skin, bones, res.name), timings

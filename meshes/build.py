@@ -22,6 +22,7 @@ from contact.handbuild import COARSE, FINE, build_hand, hand_report, write_hand
 from contact.handchecks import finger_widths
 from contact.handmesh import joint_pairs, open_joints
 from contact.handplot import SIDE_VIEW, render_hand
+from contact.jointgap import split_joint_gaps
 from contact.metaballs import skin_surface
 from contact.skeleton import Skeleton, load_skeleton
 
@@ -94,10 +95,12 @@ def pictures(directory: Path) -> None:
 
 
 def reopen(resolution: str, directory: Path) -> dict:
-    """Open the joints of a shipped flesh file again (no re-meshing) and rewrite it.
+    """Open the joints and split the joint gaps of a shipped flesh file (no re-meshing).
 
     For files meshed before :func:`contact.handmesh.open_joints` dropped every
-    tetrahedron tied to both bones of a joint; returns the file's new report.
+    tetrahedron tied to both bones of a joint, or before
+    :func:`contact.jointgap.split_joint_gaps` left two layers of free nodes in every gap
+    between bones; rewrites the file and returns its new report.
     """
     import dataclasses
 
@@ -105,6 +108,7 @@ def reopen(resolution: str, directory: Path) -> dict:
     flesh, bone_id, cell_bone = open_joints(
         hand.flesh, hand.bone_id, hand.cell_bone, joint_pairs(hand.skeleton)
     )
+    flesh, bone_id, cell_bone = split_joint_gaps(flesh, bone_id, cell_bone)
     write_hand(
         dataclasses.replace(hand, flesh=flesh, bone_id=bone_id, cell_bone=cell_bone), directory
     )
@@ -118,7 +122,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--dir", type=Path, default=HAND_DIR, help="folder with rig.toml")
     parser.add_argument("--no-pictures", action="store_true")
     parser.add_argument(
-        "--reopen", action="store_true", help="only open the joints of the shipped flesh files"
+        "--reopen",
+        action="store_true",
+        help="only open the joints and split the joint gaps of the shipped flesh files",
     )
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s: %(message)s")

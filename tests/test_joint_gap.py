@@ -1,0 +1,135 @@
+"""Joint gaps: no free node tied to two bones (contact.jointgap), on a tiny fixture and on
+the shipped fine hand; the relaxer stops when it cannot mend and the pose names the
+joint and element."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import fem
+from contact.errors import PoseError
+from contact.hand import load_hand
+from contact.handmesh import joint_pairs
+from contact.jointgap import bridging_nodes, gap_edges, split_joint_gaps
+from contact.posing import FleshRelaxer, HandPoser, tet_volumes
+from contact.skeleton import PIVOT_SUFFIX
+
+
+def _gap_fixture():
+    """A free node p in a 1 mm gap between bone 0 (below) and bone 1 (above).
+
+    p (node 0) sits at the origin; bone 0's nodes 1-3 lie 0.5 mm below it, bone 1's nodes
+    4-6 0.5 mm above; one tetrahedron on each side, and a third one, on bone 0, that does
+    not touch p.
+    """
+    tri = np.array([[0.0, 0.0], [2.0, 0.0], [0.0, 2.0]]) * 1e-3
+    below = np.column_stack([tri, np.full(3, -0.5e-3)])
+    above = np.column_stack([tri, np.full(3, 0.5e-3)])
+    points = np.vstack([[0.3e-3, 0.3e-3, 0.0], below, above, [[0.6e-3, 0.6e-3, -1.5e-3]]])
+    tets = np.array([[0, 1, 3, 2], [0, 4, 5, 6], [7, 1, 2, 3]])
+    bone_id = np.array([-1, 0, 0, 0, 1, 1, 1, -1])
+    return points, tets, bone_id
+
+
+def test_fixture_is_positive_and_bridges():
+    points, tets, bone_id = _gap_fixture()
+    assert (tet_volumes(points, tets) > 0).all()
+    assert bridging_nodes(tets, bone_id).tolist() == [0]
+    # p has three edges to each bone: ties keep bone 0, the edges to bone 1 are split
+    assert sorted(map(tuple, gap_edges(tets, bone_id).tolist())) == [(0, 4), (0, 5), (0, 6)]
+
+
+def test_split_leaves_two_layers_and_keeps_volume_and_orientation():
+    points, tets, bone_id = _gap_fixture()
+    mesh = fem.Mesh(points, {"tetra": tets}, {"tetra": np.array([3, 4, 5])})
+    out, bid, cell_bone = split_joint_gaps(mesh, bone_id, np.array([7, 8, 9]))
+    t = out.cells["tetra"]
+    assert out.n_points == 8 + 3 and len(t) == 3 + 3  # one tet bisected three times
+    vol = tet_volumes(out.points, t)
+    assert (vol > 0).all()
+    np.testing.assert_allclose(vol.sum(), tet_volumes(points, tets).sum(), rtol=1e-12)
+    assert len(bridging_nodes(t, bid)) == 0
+    assert bid.tolist() == [*bone_id.tolist(), -1, -1, -1]
+    # the middle nodes are the edges' midpoints; the halves keep region and bone
+    np.testing.assert_allclose(out.points[8:], 0.5 * (points[0] + points[[4, 5, 6]]))
+    assert sorted(out.regions["tetra"].tolist()) == [3, 4, 4, 4, 4, 5]
+    assert sorted(cell_bone.tolist()) == [7, 8, 8, 8, 8, 9]
+    # the unchanged boundary of bone 0's side, and a second split does nothing
+    again = split_joint_gaps(out, bid, cell_bone)
+    assert again[0] is out
+
+
+def test_untouched_without_bridging_nodes():
+    points, tets, bone_id = _gap_fixture()
+    mesh = fem.Mesh(points, {"tetra": tets[[0, 2]]})
+    bid = bone_id.copy()
+    out = split_joint_gaps(mesh, bid, np.zeros(2, dtype=np.int64))
+    assert out[0] is mesh
+
+
+def test_relaxer_stops_when_no_position_mends_and_says_so():
+    """Bone 1 turned so that its face passes the node's other bone face: no position of
+    p keeps both its tetrahedra positive; the relaxer stops once the energy stalls."""
+    points, tets, bone_id = _gap_fixture()
+    relaxer = FleshRelaxer(points, tets[:2], bone_id >= 0, maxiter=40)
+    x = points.copy()
+    x[4:7, 2] -= 1.2e-3  # bone 1 sinks 0.2 mm below bone 0's top
+    x[0, 2] = 0.0
+    y, moved = relaxer.relax(x)
+    assert moved == 1
+    assert (tet_volumes(y, tets[:2]) <= 0).any()  # cannot be mended
+    assert relaxer.stats["stalled"] >= 1
+    assert relaxer.stats["iterations"] < 40 * relaxer.stats["passes"]
+
+
+@pytest.fixture(scope="module")
+def fine():
+    return load_hand("fine")
+
+
+def test_fine_hand_has_no_node_tied_to_both_bones_of_a_joint(fine):
+    """The shipped fine mesh went through split_joint_gaps: the bridging nodes left lie
+    in a tetrahedron with nodes of two bones that no joint joins (neighbouring
+    metacarpals)."""
+    tets = fine.flesh.cells["tetra"]
+    assert len(gap_edges(tets, fine.bone_id)) == 0
+    left = bridging_nodes(tets, fine.bone_id)
+    print(f"fine hand: {fine.flesh.n_points} nodes, {len(tets)} tets, {len(left)} bridging")
+    assert len(left) < 100
+    names = fine.skeleton.bone_names
+    joints = {tuple(sorted(p)) for p in joint_pairs(fine.skeleton)}
+    bones = fine.bone_id
+    for node in left:
+        ring = np.unique(tets[(tets == node).any(axis=1)])
+        pair = tuple(sorted(set(bones[ring][bones[ring] >= 0].tolist())))
+        assert pair not in joints, (node, [names[b] for b in pair])
+
+
+#: Single-joint poses whose JLD mapping left the free node of a joint gap between both
+#: bones' faces on the fine hand (the relaxer could not mend them before the split).
+FINE_POSES = [{"index_pip": 82.5}, {"middle_mcp": 67.5}]
+
+
+def _pose_id(angles: dict[str, float]) -> str:
+    return "-".join(f"{k}{v:g}" for k, v in angles.items())
+
+
+@pytest.mark.parametrize("angles", FINE_POSES, ids=_pose_id)
+def test_fine_hand_deep_single_joint_poses_keep_every_tet_positive(fine, angles):
+    poser = HandPoser(fine)
+    pose = poser.pose(angles)  # raises PoseError naming joint and element otherwise
+    assert len(pose.inverted) == 0 and pose.min_quality > 0.0
+    assert pose.relaxed > 0
+
+
+def test_pose_error_names_joint_and_element_of_what_is_left(fine):
+    """Without the relaxer the JLD mapping inverts the fine hand's index MCP at 90 deg;
+    the error names the joint and the element, and lists them all."""
+    poser = HandPoser(fine, relax=False)
+    with pytest.raises(PoseError) as info:
+        poser.pose({"index_mcp": 90.0})
+    exc = info.value
+    assert exc.joint == "index_mcp" and f"element {exc.element}" in str(exc)
+    assert exc.element in exc.elements and len(exc.elements) > 1
+    assert PIVOT_SUFFIX not in exc.joint
