@@ -86,6 +86,16 @@ DIAG_COLUMNS = (
     Column("jld_where", "their inverted tets by joint area (share)"),
     Column("jld_kinds", "skin / bone / inner tets"),
 )
+LEFT_COLUMNS = (
+    Column("resolution", "mesh"),
+    Column("fraction", "fraction of limits", ".2f"),
+    Column("pose", "pose (largest angles, deg)"),
+    Column("joint", "joint"),
+    Column("element", "element"),
+    Column("bone_nodes", "its nodes on a bone"),
+    Column("quality", "its quality", ".4f"),
+    Column("inverted", "tets inverted"),
+)
 TIME_COLUMNS = (
     Column("resolution", "mesh"),
     Column("nodes", "nodes", ","),
@@ -113,7 +123,9 @@ def sample_range(poser: HandPoser, fraction: float, n_random: int, seed: int = 0
     -------
     dict
         ``poses``, ``inverted_poses``, ``bone_only_poses``, ``min_quality`` (over the
-        poses that invert nothing) and ``blamed`` (joint: count).
+        poses that invert nothing), ``blamed`` (joint: count) and ``unmended`` (per pose
+        left inverted: the pose, the joint blamed, the first inverted element, how many are
+        inverted, the element's nodes fixed to a bone and its quality).
     """
     hand = poser.hand
     limits = hand.skeleton.limits
@@ -133,6 +145,7 @@ def sample_range(poser: HandPoser, fraction: float, n_random: int, seed: int = 0
     inverted = bone = jld_bad = 0
     worst = np.inf
     blamed: Counter[str] = Counter()
+    unmended: list[dict] = []
     where: Counter[str] = Counter()
     kinds: Counter[str] = Counter()
     skin = np.zeros(hand.flesh.n_points, dtype=bool)
@@ -156,7 +169,19 @@ def sample_range(poser: HandPoser, fraction: float, n_random: int, seed: int = 0
         if len(pose.inverted):
             inverted += 1
             bone += bool(bone_only[pose.inverted].all())
-            blamed[poser.culprit(pose.angles, int(pose.inverted[0]))] += 1
+            first = int(pose.inverted[0])
+            joint = poser.culprit(pose.angles, first)
+            blamed[joint] += 1
+            unmended.append(
+                {
+                    "pose": _describe(angles),
+                    "joint": joint,
+                    "element": first,
+                    "inverted": len(pose.inverted),
+                    "bone_nodes": int((hand.bone_id[tets[first]] >= 0).sum()),
+                    "quality": float(pose.quality[first]),
+                }
+            )
         else:
             worst = min(worst, pose.min_quality)
     return {
@@ -167,6 +192,7 @@ def sample_range(poser: HandPoser, fraction: float, n_random: int, seed: int = 0
         "mean_s": float(np.mean(times)),
         "max_s": float(np.max(times)),
         "blamed": ", ".join(f"{j} {c}" for j, c in blamed.most_common(4)),
+        "unmended": unmended,
         "jld_inverted_poses": jld_bad,
         "jld_where": ", ".join(
             f"{j} {c / max(where.total(), 1):.0%}" for j, c in where.most_common(4)
@@ -175,6 +201,13 @@ def sample_range(poser: HandPoser, fraction: float, n_random: int, seed: int = 0
             f"{kinds[k] / max(kinds.total(), 1):.0%}" for k in ("skin", "bone", "inner")
         ),
     }
+
+
+def _describe(angles: dict[str, float], top: int = 3) -> str:
+    """A pose in a few words: its largest angles (degrees)."""
+    big = sorted(angles.items(), key=lambda kv: -abs(kv[1]))[:top]
+    more = len([v for v in angles.values() if v != 0.0]) - len(big)
+    return ", ".join(f"{k} {v:.0f}" for k, v in big) + (f" (+{more})" if more > 0 else "")
 
 
 def run(quick: bool = False, out: str | Path | None = None) -> list[dict]:
@@ -237,12 +270,20 @@ def run(quick: bool = False, out: str | Path | None = None) -> list[dict]:
             )
     info["load average at end"] = load_average()
     write_csv(folder / "posing.csv", [{**r} for r in rows], CSV_KEYS)
-    _write_report(folder, info, rows, timing, quick)
+    left = [
+        {"resolution": r["resolution"], "fraction": r["fraction"], **u}
+        for r in rows
+        for u in r["unmended"]
+    ]
+    write_csv(folder / "posing_inverted.csv", left, [c.key for c in LEFT_COLUMNS])
+    _write_report(folder, info, rows, timing, quick, left)
     _plot(folder / "posing.png", rows)
     return rows
 
 
-def _write_report(folder: Path, info: dict, rows: list, timing: list, quick: bool) -> None:
+def _write_report(
+    folder: Path, info: dict, rows: list, timing: list, quick: bool, left: list
+) -> None:
     rest = {r["resolution"]: r["rest_quality"] for r in rows}
     sections = [
         (
@@ -262,9 +303,11 @@ def _write_report(folder: Path, info: dict, rows: list, timing: list, quick: boo
             + ". A frame: the JLD mapping, then the relaxation of the free nodes around "
             "the tetrahedra it degrades (contact.posing.FleshRelaxer, a projected Newton "
             "method on an untangling energy); the time grows with the degraded region "
-            "(deep flexions). The joints are open (no tetrahedron tied to both bones of "
-            "a joint) and every joint keeps its bones at least 1 mm apart over its range "
-            "(contact.bones.joint_clearance).",
+            "(deep flexions); it stops when its energy stalls. The joints are open (no "
+            "tetrahedron tied to both bones of a joint), every joint keeps its bones at "
+            "least 1 mm apart over its range (contact.bones.joint_clearance) and, on a "
+            "mesh built or reopened since contact.jointgap.split_joint_gaps (the fine "
+            "one), no free node is tied by its edges to two bones.",
         ),
         (
             "Why poses would invert: the JLD mapping alone",
@@ -274,6 +317,15 @@ def _write_report(folder: Path, info: dict, rows: list, timing: list, quick: boo
             "whose proximal or distal area holds them; buffer: rigid with a segment). "
             "Kinds: with a node on the outer skin; else with a node fixed to a bone; "
             "else inner.",
+        ),
+        (
+            "Poses left inverted",
+            (markdown_table(left, LEFT_COLUMNS) if left else "None.")
+            + "\n\nEvery pose the relaxer could not mend (posing it with the default "
+            "check raises contact.PoseError naming the same joint and element): its "
+            "largest angles, the joint blamed (contact.HandPoser.culprit), the first "
+            "inverted tetrahedron, its nodes fixed to a bone and its quality, and how many "
+            "tetrahedra are inverted. Also in posing_inverted.csv.",
         ),
     ]
     write_markdown(folder / "posing.md", "Posing the hand: time and quality", info, sections)
