@@ -4,17 +4,18 @@ The scene is that of :mod:`benchmarks.hertz` (:func:`contact.hertz.hertz_check`)
 octant of an elastic ball (R = 1 m, E = 1 Pa, nu = 0.3) on the graded hex mesh of
 :func:`fem.generators.graded_ball_mesh`, zero normal displacement on its three symmetry
 planes, the table ``z = 0`` advanced by 0.01 R (a/R about 0.1). Our solver runs it
-first; SfePy then solves the very same mesh (its points and bricks handed over as arrays:
-SfePy's ``3_8`` node order is VTK's, ours), the same material (``dw_lin_elastic``, order
-2: 2x2x2 Gauss like ours), the same prescribed DOFs (our body's, as essential conditions)
-and the same rigid table, through its ``dw_contact_plane`` term: a penalty traction
-``k d n`` at the quadrature points (2x2 Gauss, integral order 3) of the sphere's faces that
-penetrate the plane by ``d`` (``f0 = 0``, a plain linear penalty, in the small-strain
-gap of ours), solved by its Newton solver (``nls.newton``, ``ls_on = 2`` as in SfePy's
-``elastic_contact_planes`` example: without it, stiff penalties take up to three times
-the iterations). The penalty ``k`` (Pa/m; ``E / R = 1``) is swept: too soft, the body
-sinks into the table by ``p / k`` and the patch spreads; stiff, Newton needs more
-updates of its active set.
+first; SfePy then solves the very same mesh (its points and bricks handed over as
+arrays: SfePy's ``3_8`` node order is VTK's, ours), the same material
+(``dw_lin_elastic``, order 2: 2x2x2 Gauss; ours fully integrated too, ``bbar=False``,
+the same discrete model: fem's default B-bar bricks are a little softer), the same
+prescribed DOFs (our body's, as essential conditions) and the same rigid table, through
+its ``dw_contact_plane`` term: a penalty traction ``k d n`` at the quadrature points
+(2x2 Gauss, integral order 3) of the sphere's faces that penetrate the plane by ``d``
+(``f0 = 0``, a plain linear penalty, in the small-strain gap of ours), solved by its
+Newton solver (``nls.newton``, ``ls_on = 2`` as in SfePy's ``elastic_contact_planes``
+example: without it, stiff penalties take up to three times the iterations). The penalty
+``k`` (Pa/m; ``E / R = 1``) is swept: too soft, the body sinks into the table by ``p /
+k`` and the patch spreads; stiff, Newton needs more updates of its active set.
 
 SfePy's contact force is read as ours is: the nodal reactions ``K u`` of the
 contact nodes (SfePy's own ``dw_lin_elastic`` evaluated on its solution; checked against
@@ -94,6 +95,8 @@ __all__ = [
 
 #: Table advance (m) for R = 1: a/R is about 0.1, as in :mod:`benchmarks.hertz`.
 DEPTH = 0.01
+#: Ours with fully integrated bricks, as SfePy's ``dw_lin_elastic``: the same discrete model.
+SAME_MODEL_BBAR = False
 
 #: Cell sizes at the pole (m): full run and ``--quick``.
 SIZES: dict[bool, tuple[float, ...]] = {
@@ -442,7 +445,7 @@ def _our_profile(h: float) -> dict[str, float]:
     """Our solve under cProfile: assembly, factorisation and the rest of the contact solve."""
     prof = cProfile.Profile()
     prof.enable()
-    chk = hertz_check(depth=DEPTH, fine_size=h)
+    chk = hertz_check(depth=DEPTH, fine_size=h, bbar=SAME_MODEL_BBAR)
     prof.disable()
     st = pstats.Stats(prof)
     assemble = _cum(st, "fem/assembly.py", "assemble_stiffness")
@@ -460,7 +463,7 @@ def _our_profile(h: float) -> dict[str, float]:
 def _warm_up() -> None:
     """One untimed solve of each code on a tiny mesh: first-call costs (imports, SfePy's
     caches, MKL's start) stay out of the timings."""
-    chk = hertz_check(depth=DEPTH, fine_size=0.06)
+    chk = hertz_check(depth=DEPTH, fine_size=0.06, bbar=SAME_MODEL_BBAR)
     solve_sfepy_hertz(chk, 1e4)
     gc.collect()
 
@@ -577,7 +580,7 @@ def _load1() -> float:
 
 def _ours(h: float) -> tuple[HertzCheck, dict[str, Any]]:
     """Our solve of one mesh, timed once (:func:`_ours_again` adds runs)."""
-    chk = hertz_check(depth=DEPTH, fine_size=h)
+    chk = hertz_check(depth=DEPTH, fine_size=h, bbar=SAME_MODEL_BBAR)
     row = _row(h, chk, "ours", "pardiso", chk.patch, chk.hertz, _our_seconds(chk), 1)
     row.update(
         iterations=chk.result.iterations,
@@ -590,7 +593,7 @@ def _ours(h: float) -> tuple[HertzCheck, dict[str, Any]]:
 
 def _ours_again(h: float, row: dict[str, Any]) -> None:
     """One more timed run of ours; the row keeps the fastest."""
-    chk = hertz_check(depth=DEPTH, fine_size=h)
+    chk = hertz_check(depth=DEPTH, fine_size=h, bbar=SAME_MODEL_BBAR)
     t = _our_seconds(chk)
     row["runs"] += 1
     if t < row["total_s"]:

@@ -49,6 +49,9 @@ class ElasticBody:
         Factor the stiffness on first use (default), so that the contact iteration can
         mark the contact zone first (:meth:`fem.StaticSolver.mark`: partial solves
         there); False factors it now.
+    bbar : bool, optional
+        Bricks and wedges with their element's mean dilatation (default; see
+        :func:`fem.assemble_stiffness`), or fully integrated.
     """
 
     def __init__(
@@ -64,11 +67,13 @@ class ElasticBody:
         supports: Mapping[str, ArrayLike] | None = None,
         hold_rotation: bool = True,
         lazy: bool = True,
+        bbar: bool = True,
     ) -> None:
         self.name = name
         self.mesh = mesh
         self.materials = materials
-        self.stiffness = fem.assemble_stiffness(mesh, materials)
+        self.bbar = bbar
+        self.stiffness = fem.assemble_stiffness(mesh, materials, bbar=bbar)
         pres = None if prescribed is None else np.asarray(prescribed, dtype=np.int64)
         self.solver = fem.StaticSolver(
             self.stiffness,

@@ -515,6 +515,7 @@ def hertz_check(
     growth: float = 1.25,
     coarse_size: float | None = None,
     edge_cells: float = 2.0,
+    bbar: bool = True,
 ) -> HertzCheck:
     """Press a ball between two plates and measure its contact patch against Hertz.
 
@@ -543,6 +544,9 @@ def hertz_check(
         Grading of the mesh (see :func:`fem.generators.graded_ball_mesh`).
     edge_cells : float
         Passed to :func:`measure_contact_patch`.
+    bbar : bool
+        The ball's bricks with their mean dilatation (default) or fully integrated (the
+        discrete model of codes without B-bar, for a like-for-like comparison).
 
     Returns
     -------
@@ -562,7 +566,7 @@ def hertz_check(
     )
     t1 = time.perf_counter()
     pres = _symmetry_dofs(mesh, center, 1e-9 * radius) if model == "octant" else None
-    body = ElasticBody("ball", mesh, fem.LinearElastic(E, nu), prescribed=pres)
+    body = ElasticBody("ball", mesh, fem.LinearElastic(E, nu), prescribed=pres, bbar=bbar)
     t2 = time.perf_counter()
     planes = [Plane([0, 0, 0], [0, 0, 1], motion=[0, 0, depth], name="table")]
     if model == "full":

@@ -483,7 +483,7 @@ class ResultsWriter:
             u = np.asarray(result.displacement[name], dtype=np.float64)
             f = result.contact_force.get(name)
             f = np.zeros_like(u) if f is None else np.asarray(f, dtype=np.float64)
-            sigma = cell_stress(body.mesh, body.materials, u.ravel())
+            sigma = cell_stress(body.mesh, body.materials, u.ravel(), bbar=body.bbar)
             vm = {k: von_mises(s) for k, s in sigma.items()}
             six = {k: s[:, _VOIGT[0], _VOIGT[1]] for k, s in sigma.items()}
             max_vm[name] = float(max(v.max() for v in vm.values()))

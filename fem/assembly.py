@@ -35,11 +35,16 @@ def element_blocks(
     element: ReferenceElement,
     lam: NDArray[np.float64],
     mu: NDArray[np.float64],
+    bbar: bool = True,
 ) -> NDArray[np.float64]:
     """Element stiffness of isotropic linear elasticity as 3x3 node-pair blocks.
 
     ``K[a, b, i, k] = sum_q w_q det J_q (lam G_ai G_bk + mu G_ak G_bi + mu delta_ik G_al G_bl)``
-    with ``G`` the physical shape-function gradients.
+    with ``G`` the physical shape-function gradients. An element with
+    ``mean_dilatation`` (B-bar) takes its volumetric part from the element's mean
+    dilatation instead: the sum above with ``-2 mu / 3`` for ``lam`` (the deviatoric
+    part), plus ``kappa S_ai S_bk / V`` with ``S_a = sum_q w_q det J_q G_a``, ``V`` the
+    element's volume and ``kappa = lam + 2 mu / 3`` the bulk modulus.
 
     Parameters
     ----------
@@ -49,6 +54,9 @@ def element_blocks(
         Reference element of the block.
     lam, mu : ndarray, shape (M,)
         Lame parameters per element.
+    bbar : bool
+        Use the element's mean dilatation where it has one (False: every term at every
+        Gauss point, "full integration").
 
     Returns
     -------
@@ -56,9 +64,16 @@ def element_blocks(
         Block ``[e, a, b]`` couples node ``a`` (rows, component ``i``) with node ``b``.
     """
     grad, detj = gradients(coords, element)
-    gs = grad * np.sqrt(detj * element.weights)[:, :, None, None]
+    wdet = detj * element.weights
+    gs = grad * np.sqrt(wdet)[:, :, None, None]
     m = np.einsum("eqai,eqbk->eabik", gs, gs, optimize=True)
-    kb = lam[:, None, None, None, None] * m
+    if bbar and element.mean_dilatation:
+        s = np.einsum("eq,eqai->eai", wdet, grad)
+        kappa = (lam + 2.0 * mu / 3.0) / wdet.sum(axis=1)
+        kb = kappa[:, None, None, None, None] * np.einsum("eai,ebk->eabik", s, s)
+        kb -= (2.0 * mu / 3.0)[:, None, None, None, None] * m
+    else:
+        kb = lam[:, None, None, None, None] * m
     kb += mu[:, None, None, None, None] * m.swapaxes(-1, -2)
     trace = mu[:, None, None] * (m[..., 0, 0] + m[..., 1, 1] + m[..., 2, 2])
     for i in range(3):
@@ -71,12 +86,13 @@ def element_stiffness(
     element: ReferenceElement,
     lam: NDArray[np.float64],
     mu: NDArray[np.float64],
+    bbar: bool = True,
 ) -> NDArray[np.float64]:
     """Element stiffness matrices ``(M, 3n, 3n)`` in the element's node-major DOF order.
 
     See :func:`element_blocks` for the formula and the parameters.
     """
-    kb = element_blocks(coords, element, lam, mu)
+    kb = element_blocks(coords, element, lam, mu, bbar)
     m, n = kb.shape[:2]
     return kb.transpose(0, 1, 3, 2, 4).reshape(m, 3 * n, 3 * n)
 
@@ -97,7 +113,7 @@ def lame_fields(
 
 
 def assemble_stiffness(
-    mesh: Mesh, materials: LinearElastic | Mapping[int, LinearElastic]
+    mesh: Mesh, materials: LinearElastic | Mapping[int, LinearElastic], *, bbar: bool = True
 ) -> sp.csr_matrix:
     """Assemble the global stiffness matrix.
 
@@ -107,6 +123,10 @@ def assemble_stiffness(
         The mesh (any mix of tetra, hexahedron and wedge cells).
     materials : LinearElastic or mapping of int to LinearElastic
         One material for all cells, or one per region id.
+    bbar : bool
+        Hexahedra and wedges take their volumetric strain as the element's mean (B-bar:
+        no volumetric locking as Poisson's ratio nears 1/2); False integrates every term
+        at every Gauss point. Tetrahedra are the same either way.
 
     Returns
     -------
@@ -135,7 +155,7 @@ def assemble_stiffness(
         lam, mu = fields[kind]
         for s in range(0, len(conn), CHUNK):
             c = conn[s : s + CHUNK]
-            kb = element_blocks(mesh.points[c], elem, lam[s : s + CHUNK], mu[s : s + CHUNK])
+            kb = element_blocks(mesh.points[c], elem, lam[s : s + CHUNK], mu[s : s + CHUNK], bbar)
             kb = kb.reshape(-1, 9)
             idx = inverse[pos : pos + len(kb)]
             # one scatter over only the pairs this chunk touches: its cost follows the

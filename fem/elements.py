@@ -39,6 +39,12 @@ class ReferenceElement:
         Quadrature weights (they sum to the reference volume).
     faces : tuple of tuple of int
         Local node indices of each face, outward oriented.
+    mean_dilatation : bool
+        The volumetric strain is the element's mean (B-bar, Hughes 1980): the
+        deviatoric strain is integrated at every Gauss point, the dilatation once per
+        element, so that the element does not lock as Poisson's ratio nears 1/2. For
+        the multi-point elements (hexahedron, wedge); a linear tetrahedron's strain is
+        constant already.
     """
 
     name: str
@@ -48,6 +54,7 @@ class ReferenceElement:
     faces: tuple[tuple[int, ...], ...]
     _shape: object = field(repr=False)
     _grad: object = field(repr=False)
+    mean_dilatation: bool = False
 
     def shape(self, xi: NDArray[np.float64]) -> NDArray[np.float64]:
         """Shape functions at reference points ``xi (q, 3)``, shape ``(q, n_nodes)``."""
@@ -132,6 +139,7 @@ HEX8 = ReferenceElement(
     ),
     _shape=_hex_shape,
     _grad=_hex_grad,
+    mean_dilatation=True,
 )
 
 # --- wedge (triangular prism) ----------------------------------------------------------
@@ -164,6 +172,7 @@ WEDGE6 = ReferenceElement(
     faces=((0, 2, 1), (3, 4, 5), (0, 1, 4, 3), (1, 2, 5, 4), (2, 0, 3, 5)),
     _shape=_wedge_shape,
     _grad=_wedge_grad,
+    mean_dilatation=True,
 )
 
 ELEMENTS: dict[str, ReferenceElement] = {e.name: e for e in (TET4, HEX8, WEDGE6)}

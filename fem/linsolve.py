@@ -27,6 +27,10 @@ __all__ = ["BACKENDS", "Factorization", "available_backends", "factorize", "reso
 
 log = logging.getLogger(__name__)
 
+#: Largest relative residual of the test solve after a factorisation (see
+#: ``_Pardiso._check_regular``).
+REGULAR_RESIDUAL = 1e-6
+
 
 class Factorization(Protocol):
     """A factorised square matrix that solves for many right-hand sides."""
@@ -86,6 +90,26 @@ class _Pardiso:
                 "or solve it as a free body"
             ) from exc
         self.factor_nnz = int(iparm[17])
+        self._check_regular(a)
+
+    def _check_regular(self, a: sp.csr_matrix) -> None:
+        """Refuse a singular matrix whose pivots round to tiny positive values.
+
+        Cholesky stops at a zero or negative pivot, but a free mode of a stiffness (a
+        body held at one node, free to turn) can leave pivots of round-off size and
+        either sign. Their inverse floods a solve: the residual of one solve with a
+        fixed right-hand side tells (about 1e-12 for a regular stiffness, order one
+        for a singular one), at the cost of one solve.
+        """
+        b = np.random.default_rng(0).standard_normal(self.n)
+        x = self.solve(b)
+        res = float(np.linalg.norm(a @ x - b)) / float(np.linalg.norm(b))
+        if not (res <= REGULAR_RESIDUAL):
+            raise SolverError(
+                f"matrix is singular: a test solve leaves a residual of {res:.1e} (PARDISO "
+                "met round-off pivots); is the body free to move? prescribe displacements "
+                "that hold it, or solve it as a free body"
+            )
 
     def _call(self, phase: int, b: NDArray, x: NDArray, perm: NDArray[np.int32]) -> None:
         import pypardiso

@@ -17,21 +17,35 @@ __all__ = ["cell_stress", "gauss_strain", "nodal_average", "stress_from_strain",
 
 
 def _strain_and_weights(
-    mesh: Mesh, u: ArrayLike
+    mesh: Mesh, u: ArrayLike, bbar: bool = True
 ) -> dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]]:
-    """Per type: strain at the Gauss points ``(M, q, 3, 3)`` and their weights ``(M, q)``."""
+    """Per type: strain at the Gauss points ``(M, q, 3, 3)`` and their weights ``(M, q)``.
+
+    An element with ``mean_dilatation`` (B-bar) has its Gauss points' volumetric strain
+    replaced by the element's mean, as its stiffness does.
+    """
     uv = np.asarray(u, dtype=np.float64).reshape(-1, 3)
     out = {}
     for kind, conn in mesh.cells.items():
-        grad, detj = gradients(mesh.points[conn], ELEMENTS[kind])
+        elem = ELEMENTS[kind]
+        grad, detj = gradients(mesh.points[conn], elem)
+        w = detj * elem.weights
         du = np.einsum("eqaj,eai->eqij", grad, uv[conn])  # du_i/dx_j
-        out[kind] = (0.5 * (du + du.swapaxes(-1, -2)), detj * ELEMENTS[kind].weights)
+        eps = 0.5 * (du + du.swapaxes(-1, -2))
+        if bbar and elem.mean_dilatation:
+            tr = np.trace(eps, axis1=-2, axis2=-1)
+            mean = (w * tr).sum(axis=1) / w.sum(axis=1)
+            eps = eps + ((mean[:, None] - tr) / 3.0)[..., None, None] * np.eye(3)
+        out[kind] = (eps, w)
     return out
 
 
-def gauss_strain(mesh: Mesh, u: ArrayLike) -> dict[str, NDArray[np.float64]]:
-    """Small strain tensor at every Gauss point: per type ``(M, q, 3, 3)``."""
-    return {kind: eps for kind, (eps, _) in _strain_and_weights(mesh, u).items()}
+def gauss_strain(mesh: Mesh, u: ArrayLike, *, bbar: bool = True) -> dict[str, NDArray[np.float64]]:
+    """Small strain tensor at every Gauss point: per type ``(M, q, 3, 3)``.
+
+    ``bbar`` as in :func:`fem.assemble_stiffness` (the element's mean dilatation).
+    """
+    return {kind: eps for kind, (eps, _) in _strain_and_weights(mesh, u, bbar).items()}
 
 
 def stress_from_strain(
@@ -55,6 +69,7 @@ def cell_stress(
     initial: Mapping[str, ArrayLike] | None = None,
     *,
     at: str = "mean",
+    bbar: bool = True,
 ) -> dict[str, NDArray[np.float64]]:
     """Cauchy stress per cell.
 
@@ -67,10 +82,12 @@ def cell_stress(
     at : {"mean", "gauss"}
         ``"mean"``: the volume average over each cell ``(M, 3, 3)``; ``"gauss"``: every
         Gauss point ``(M, q, 3, 3)``.
+    bbar : bool
+        As the stiffness was assembled (:func:`fem.assemble_stiffness`).
     """
     if at not in ("mean", "gauss"):
         raise ValueError(f"at must be 'mean' or 'gauss', got {at!r}")
-    strains = _strain_and_weights(mesh, u)
+    strains = _strain_and_weights(mesh, u, bbar)
     fields = lame_fields(mesh, materials)
     out = {}
     for kind, (e, w) in strains.items():

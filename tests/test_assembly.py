@@ -31,7 +31,7 @@ def _skfem_stiffness(mesh: fem.Mesh) -> sp.csr_matrix:
 @pytest.mark.parametrize("element", ["tetra", "hexahedron"])
 def test_stiffness_equals_scikit_fem(element):
     mesh = distort(fem.box_mesh((1.0, 0.7, 1.3), (3, 4, 3), element=element), 0.2, seed=7)
-    k = fem.assemble_stiffness(mesh, fem.LinearElastic(E, NU))
+    k = fem.assemble_stiffness(mesh, fem.LinearElastic(E, NU), bbar=False)
     ref = _skfem_stiffness(mesh)
     err = sp.linalg.norm(k - ref) / sp.linalg.norm(ref)
     assert err < 1e-12

@@ -211,12 +211,12 @@ def test_hertz_on_a_test_sized_mesh(test_sized):
     check_solution(chk)
     assert chk.mesh.n_dofs == 9240
     assert chk.hertz.contact_radius / R == pytest.approx(0.102, abs=0.002)
-    # measured: radius -1.89 %, peak pressure +0.82 %; nodal moment radius +2.34 %, fitted
-    # radius +2.24 %, lumped fit: peak pressure -0.87 %, radius -0.32 %
+    # measured (B-bar bricks): radius -0.83 %, peak pressure -0.23 %; nodal moment radius
+    # +3.37 %, fitted radius +2.26 %, lumped fit: peak pressure -1.89 %, radius -0.44 %
     hz, patch = chk.hertz, chk.patch
-    assert abs(chk.radius_error) < 0.03
-    assert abs(chk.pressure_error) < 0.03
-    assert abs(patch.contact_radius_nodal / hz.contact_radius - 1) < 0.03
+    assert abs(chk.radius_error) < 0.015
+    assert abs(chk.pressure_error) < 0.01
+    assert abs(patch.contact_radius_nodal / hz.contact_radius - 1) < 0.04
     assert abs(patch.fit_radius / hz.contact_radius - 1) < 0.03
     assert abs(patch.peak_pressure_lumped / hz.peak_pressure - 1) < 0.03
     assert abs(patch.fit_radius_lumped / hz.contact_radius - 1) < 0.03

@@ -231,7 +231,8 @@ def test_seed_loop_reports_failure(both):
             ContactSettings(algorithm="seed", relaxation=relaxation, max_iterations=20),
         )
         assert not res.converged
-        assert res.stop_reason in ("diverged", "iteration limit", "cycling")
+        reasons = ("diverged", "iteration limit", "cycling", "singular contact rows")
+        assert res.stop_reason.startswith(reasons), res.stop_reason
         assert len(res.history) == res.iterations >= 1
         if both:  # measured: diverged at the first iteration, whatever the relaxation
             assert res.stop_reason == "diverged"

@@ -83,3 +83,38 @@ def test_lame_stress_at_the_wall():
     ref_rr = -P * A**3 * (B**3 / r**3 - 1) / (B**3 - A**3)
     assert np.abs(hoop[mid] / ref_hoop[mid] - 1).max() < 0.03
     assert np.abs(srr[mid] - ref_rr[mid]).max() < 0.05 * P
+
+
+@pytest.mark.parametrize("nu", [0.3, 0.49, 0.499])
+def test_hex8_mean_dilatation_does_not_lock(nu):
+    """B-bar hexahedra: the error does not grow as nu nears 1/2; fully integrated ones lock."""
+
+    def exact(r):
+        return P * A**3 / (B**3 - A**3) * ((1 - 2 * nu) * r / E + (1 + nu) * B**3 / (2 * E * r**2))
+
+    mesh = fem.shell_mesh(A, B, divisions=8, layers=2)
+    mat = fem.LinearElastic(E, nu)
+    inner = {
+        kind: np.linalg.norm(mesh.points[f].mean(axis=1), axis=1) < 0.5 * (A + B)
+        for kind, f in mesh.boundary.faces.items()
+    }
+    f = fem.pressure_load(mesh, mesh.boundary.subset(inner), P)
+    r = np.linalg.norm(mesh.points, axis=1)
+    err = {}
+    for bbar in (True, False):
+        k = fem.assemble_stiffness(mesh, mat, bbar=bbar)
+        u = fem.StaticSolver(k, points=mesh.points).solve(f).u.reshape(-1, 3)
+        ur = np.einsum("ij,ij->i", u, mesh.points) / r
+        err[bbar] = np.abs(ur - exact(r)).max() / exact(A)
+        # the stress follows the same strain: hoop stress at mid-wall cells
+        s = fem.cell_stress(mesh, mat, u.ravel(), bbar=bbar)["hexahedron"]
+        x = mesh.points[mesh.cells["hexahedron"]].mean(axis=1)
+        rc = np.linalg.norm(x, axis=1)
+        er = x / rc[:, None]
+        hoop = (np.trace(s, axis1=1, axis2=2) - np.einsum("ei,eij,ej->e", er, s, er)) / 2
+        exact_hoop = P * A**3 * (B**3 / (2 * rc**3) + 1) / (B**3 - A**3)
+        if bbar:
+            assert np.abs(hoop - exact_hoop).max() <= 0.03 * exact_hoop.min()
+    assert err[True] <= 0.03  # 2.2-2.6 % at every nu on this mesh
+    if nu >= 0.49:
+        assert err[False] >= 5 * err[True]  # 15 % and 62 % locked
