@@ -288,7 +288,9 @@ def run(
             result, extra, planes, solved = run_.frame(t, tell)
             # the hand drawn half transparent, so that the ball's stress shows through
             bodies = {
-                b.name: BodyFrame(b.mesh, b.materials, opacity=0.5 if b.name == "hand" else 1.0)
+                b.name: BodyFrame(
+                    b.mesh, b.materials, opacity=0.5 if b.name == "hand" else 1.0, bbar=b.bbar
+                )
                 for b in solved
             }
             entry = writer.add_frame(

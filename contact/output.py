@@ -121,11 +121,15 @@ class BodyFrame:
         Its material, or one per region (for the stress).
     opacity : float
         Opacity of the body in the pictures (1 opaque; e.g. 0.5 for a hand around a ball).
+    bbar : bool
+        Its bricks and wedges with their mean dilatation, as its stiffness was assembled
+        (:class:`contact.body.ElasticBody`): the stress follows the same strain.
     """
 
     mesh: fem.Mesh
     materials: fem.LinearElastic | Mapping[int, fem.LinearElastic]
     opacity: float = 1.0
+    bbar: bool = True
 
 
 def verdict(result: FrameResult) -> dict[str, Any]:
