@@ -503,8 +503,7 @@ class _Frame:
                 stop = (
                     f"penetration left: node {deepest[2]} of pair {deepest[1]} is inside by "
                     f"{deepest[0]:.3g} of its element size (tolerance "
-                    f"{self.settings.gap_tolerance:g}); its contact row was renewed as often "
-                    "as allowed"
+                    f"{self.settings.gap_tolerance:g})"
                 )
         over = self.over_limit(supports)
         if over and converged:
@@ -600,7 +599,8 @@ def _key(rows: ContactRows) -> bytes:
     """The contact set's identity: its rows, in any order (a renewed row is another row)."""
     if not len(rows):
         return b""
-    k = np.column_stack([rows.keys, rows.m_nodes, rows.normal.view(np.int64)])
+    normals = np.ascontiguousarray(rows.normal, dtype=np.float64).view(np.int64)
+    k = np.column_stack([rows.keys, rows.m_nodes, normals])
     return k[np.lexsort(k.T[::-1])].tobytes()
 
 
