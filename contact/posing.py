@@ -129,8 +129,12 @@ class FleshRelaxer:
     (Jacobi preconditioner), then a backtracking line search. Escobar's ``delta``
     follows the most inverted tetrahedron of the patch, ``sqrt(eps (eps - J_min))``
     with ``eps`` the ``delta`` given: a gentle barrier on a tangled patch, a steep one
-    (``eps / 10``) once every ``J`` exceeds ``eps``. A patch still inverted at the
-    minimum is widened by a ring (``rounds``). All of it is vectorised over
+    (``eps / 10``) once every ``J`` exceeds ``eps``. A pass keeps its iterate with the
+    fewest inverted tetrahedra (then the best worst quality): the gentle barrier of a
+    tangled patch can let the count grow on the way. It stops when its energy stalls
+    (:data:`RELAX_STALL`). A patch still inverted at the minimum is widened by a ring
+    (``rounds``), as long as the wider patch mends more; a pass that leaves more
+    inverted than before is undone. All of it is vectorised over
     tetrahedra: a deep pose of the coarse hand takes a few Newton steps.
 
     Parameters
@@ -217,7 +221,9 @@ class FleshRelaxer:
         d2 = delta * delta
         r = np.sqrt(j * j + 4.0 * d2)
         # h = (j + r) / 2 without cancellation where j << 0 (inverted): (j + r)(r - j) = 4 d^2
-        h = np.where(j >= 0.0, 0.5 * (j + r), 2.0 * d2 / (r - j))
+        neg = j < 0.0
+        h = 0.5 * (j + r)
+        h[neg] = 2.0 * d2 / (r[neg] - j[neg])
         nf = np.einsum("mij,mij->m", f, f)
         k = self.kappa
         h23 = h ** (-2.0 / 3.0)
@@ -288,11 +294,15 @@ class FleshRelaxer:
                 break
             moved[free] = True
             self.stats["passes"] += 1
+            before = x[free].copy()
             self._minimise(x, free)
             bad = self.degraded(x)
             left = int((tet_volumes(x, self.tets[bad]) <= 0.0).sum())
+            if left > inverted:  # worse than before the pass: undo it
+                x[free] = before
+                break
             # done, or a wider patch did not help: what is left is reported by the caller
-            if left == 0 or (k > 0 and left >= inverted):
+            if left == 0 or (k > 0 and left == inverted):
                 break
             inverted = left
         return x, int(moved.sum())
@@ -319,6 +329,8 @@ class FleshRelaxer:
         eps = self.delta
         e_prev, n_prev = np.inf, len(cells)
         stalled = 0
+        q = tet_quality(x, tets)
+        best, x_best = (int((q <= 0.0).sum()), -q.min()), x[free].copy()
         for _ in range(self.maxiter):
             # Escobar's regularisation follows the most inverted tetrahedron: a gentle
             # barrier on a tangled patch, a steep one (delta -> 0) once it is untangled
@@ -340,20 +352,25 @@ class FleshRelaxer:
                     break
                 t *= 0.5
             q = tet_quality(x, tets)
+            n_inv = int((q <= 0.0).sum())
+            if (n_inv, -q.min()) < best:
+                best, x_best = (n_inv, -q.min()), x[free].copy()
             if (q > floor).all():
-                return
+                break
             # converged: nothing more to gain (a tetrahedron held down by the bones)
             if q.min() > 0.0 and -decrease < 1e-3 * e0 and e_prev - e1 < 1e-3 * e0:
-                return
+                break
             # stalled: the energy no longer falls (a tetrahedron no position of the free
             # nodes can mend, or one the patch is too small for)
-            n_inv = int((q <= 0.0).sum())
             slow = e0 - e1 < RELAX_STALL * e0 and n_inv >= n_prev
             stalled = stalled + 1 if slow else 0
             if stalled >= 3:
                 self.stats["stalled"] += 1
-                return
+                break
             e_prev, n_prev = e1, min(n_inv, n_prev)
+        # the iterate with the fewest inverted tetrahedra (then the best worst quality):
+        # a tangled patch's gentle barrier can let the count grow before it falls
+        x[free] = x_best
 
 
 @dataclass(frozen=True)
