@@ -96,8 +96,9 @@ def solve_rigid_contact(
     if g0.size:
         # the contact zone, for partial solves (:mod:`contact.zone`)
         zone = np.zeros(cand.size, dtype=bool)
-        for g in g0.T:  # each plane's
-            zone |= slave_zone(x, cand, g, g < tol_gap[cand], local[cand])
+        for g in g0.T:  # each plane's, where it comes within a few elements
+            if g.min() < 3.0 * float(local[cand].max()):
+                zone |= slave_zone(x, cand, g, g < tol_gap[cand], local[cand])
         body.mark_zone(cand[zone], g0.min(axis=1)[zone])
 
     # step 2: nodes behind a plane, or touching it within the tolerance, are repelled
