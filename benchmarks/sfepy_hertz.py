@@ -63,6 +63,7 @@ from numpy.typing import NDArray
 from contact.hertz import (
     ContactPatch,
     HertzCheck,
+    HertzErrors,
     HertzSolution,
     hertz_check,
     hertz_sphere_on_plane,
@@ -190,7 +191,7 @@ def _sfepy_version() -> str:
 
 
 @dataclass
-class SfepyHertz:
+class SfepyHertz(HertzErrors):
     """SfePy's solve of a Hertz scene, measured as ours is.
 
     Attributes
@@ -230,16 +231,6 @@ class SfepyHertz:
     iterations: int
     converged: bool
     seconds: dict[str, float] = field(default_factory=dict)
-
-    @property
-    def radius_error(self) -> float:
-        """Relative error of the measured contact radius against Hertz."""
-        return self.patch.errors(self.hertz)[0]
-
-    @property
-    def pressure_error(self) -> float:
-        """Relative error of the measured peak pressure against Hertz."""
-        return self.patch.errors(self.hertz)[1]
 
 
 @dataclass

@@ -70,6 +70,7 @@ __all__ = [
     "HERTZ_MODELS",
     "ContactPatch",
     "HertzCheck",
+    "HertzErrors",
     "HertzSolution",
     "effective_modulus",
     "hertz_check",
@@ -455,8 +456,28 @@ def measure_contact_patch(
 HERTZ_MODELS: dict[str, float] = {"full": 1.0, "octant": 0.25}
 
 
+class HertzErrors:
+    """``radius_error`` and ``pressure_error`` of a result's ``patch`` against its ``hertz``.
+
+    A base of the result classes that hold both (plates, two bodies, the SfePy peer).
+    """
+
+    patch: ContactPatch
+    hertz: HertzSolution
+
+    @property
+    def radius_error(self) -> float:
+        """Relative error of the measured contact radius against Hertz."""
+        return self.patch.errors(self.hertz)[0]
+
+    @property
+    def pressure_error(self) -> float:
+        """Relative error of the measured peak pressure against Hertz."""
+        return self.patch.errors(self.hertz)[1]
+
+
 @dataclass(frozen=True)
-class HertzCheck:
+class HertzCheck(HertzErrors):
     """An elastic ball pressed between two rigid frictionless plates, against Hertz.
 
     Attributes
@@ -484,16 +505,6 @@ class HertzCheck:
     patch: ContactPatch
     hertz: HertzSolution
     seconds: dict[str, float] = field(default_factory=dict)
-
-    @property
-    def radius_error(self) -> float:
-        """Relative error of the measured contact radius against Hertz."""
-        return self.patch.errors(self.hertz)[0]
-
-    @property
-    def pressure_error(self) -> float:
-        """Relative error of the measured peak pressure against Hertz."""
-        return self.patch.errors(self.hertz)[1]
 
 
 def _symmetry_dofs(mesh: fem.Mesh, center: NDArray, tol: float) -> NDArray[np.int64]:

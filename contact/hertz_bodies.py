@@ -54,7 +54,13 @@ from fem.generators import graded_ball_mesh, graded_spacing, grid_mesh
 from .body import ElasticBody
 from .errors import ContactError
 from .geometry import Plane
-from .hertz import ContactPatch, HertzSolution, effective_modulus, measure_contact_patch
+from .hertz import (
+    ContactPatch,
+    HertzErrors,
+    HertzSolution,
+    effective_modulus,
+    measure_contact_patch,
+)
 from .iteration import ContactSettings, solve_frame
 from .pairs import ContactPair
 from .results import FrameResult
@@ -387,7 +393,7 @@ def hertz_scene(
 
 
 @dataclass(frozen=True)
-class HertzBodiesCheck:
+class HertzBodiesCheck(HertzErrors):
     """A Hertz scene solved, measured and compared.
 
     Attributes
@@ -413,16 +419,6 @@ class HertzBodiesCheck:
     hertz: HertzSolution
     action_reaction: float
     seconds: dict[str, float] = field(default_factory=dict)
-
-    @property
-    def radius_error(self) -> float:
-        """Relative error of the top sphere's contact radius against Hertz."""
-        return self.patch.errors(self.hertz)[0]
-
-    @property
-    def pressure_error(self) -> float:
-        """Relative error of the top sphere's peak pressure against Hertz."""
-        return self.patch.errors(self.hertz)[1]
 
     @property
     def radius_error_other(self) -> float:
