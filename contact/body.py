@@ -185,8 +185,8 @@ class ElasticBody:
             Nodes of the zone (repeats allowed).
         nearness : array_like of float
             How near each is to contact (smaller first: a gap, m); where the zone would
-            pass the solver's limit (:data:`fem.statics.MARK_LIMIT` DOFs, half the
-            factored DOFs), the nearest nodes are marked.
+            pass the solver's capacity (:meth:`fem.StaticSolver.mark_capacity`), the
+            nearest nodes are marked.
 
         Returns
         -------
@@ -199,8 +199,7 @@ class ElasticBody:
         order = np.argsort(np.asarray(nearness, dtype=np.float64).ravel(), kind="stable")
         nodes = nodes[order]
         nodes = nodes[np.sort(np.unique(nodes, return_index=True)[1])]  # nearest first
-        limit = min(fem.statics.MARK_LIMIT, self.solver.factored_matrix.shape[0] // 2) // 3
-        nodes = nodes[:limit]
+        nodes = nodes[: self.solver.mark_capacity() // 3]
         return int(nodes.size) if self.solver.mark(fem.node_dofs(nodes)) else 0
 
     def support_forces(self, reactions: NDArray[np.float64]) -> dict[str, NDArray[np.float64]]:

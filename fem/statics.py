@@ -272,7 +272,11 @@ class StaticSolver:
         """Whether the stiffness is factored (a lazy solver is not until first used)."""
         return self._factorization is not None
 
-    def mark(self, dofs: ArrayLike, limit: int = MARK_LIMIT) -> bool:
+    def mark_capacity(self, limit: int | None = None) -> int:
+        """Most DOFs :meth:`mark` takes: ``limit`` (default :data:`MARK_LIMIT`), <= n / 2."""
+        return min(MARK_LIMIT if limit is None else limit, self._to_factor.shape[0] // 2)
+
+    def mark(self, dofs: ArrayLike, limit: int | None = None) -> bool:
         """Mark DOFs where constraint rows will act, for partial solves on them.
 
         Before the factorisation, free; after it, DOFs not marked yet cost a new
@@ -292,7 +296,7 @@ class StaticSolver:
         rows = self._frow_of(d)
         rows = np.unique(rows[rows >= 0])
         union = np.union1d(self._marks, rows)
-        if self.backend != "pardiso" or union.size > min(limit, self._to_factor.shape[0] // 2):
+        if self.backend != "pardiso" or union.size > self.mark_capacity(limit):
             return False
         if union.size == self._marks.size:
             return True
