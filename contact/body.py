@@ -166,10 +166,8 @@ class ElasticBody:
 
     @cached_property
     def contact_closed(self) -> bool:
-        """Whether the contact faces close on themselves (then inside is a winding number)."""
-        from .surfacequery import TriangleSurface
-
-        return TriangleSurface(self.mesh.points, self.contact_triangles, name=self.name).is_closed
+        """Whether the contact faces close on themselves (then a node far outside is skipped)."""
+        return self.contact_surface.is_closed
 
     @cached_property
     def contact_nodes(self) -> NDArray[np.int64]:

@@ -42,7 +42,7 @@ from .body import ElasticBody
 from .delassus import BodyState, ContactSpace
 from .errors import ContactError
 from .geometry import Plane
-from .pairs import ContactPair, ContactRows, Penetrations, measure, mortar_candidates
+from .pairs import ContactPair, ContactRows, Penetrations, Survey, measure, mortar_candidates
 from .results import FrameResult, IterationRecord
 from .zone import master_zone, slave_zone
 
@@ -175,6 +175,8 @@ class _Frame:
         )  # broad-phase margin: one element
         self.callback: Callable[[IterationRecord], None] | None = None
         self._measured: dict[int, tuple[dict[str, NDArray], float, Penetrations]] = {}
+        # what each pair's last measurement tells of its nodes far from the master
+        self._surveys: dict[int, Survey] = {}
         self._force = 0.0
         self.broken = 0
         self.renewed: dict[int, dict[int, int]] = {}
@@ -309,7 +311,9 @@ class _Frame:
             ku, kmargin, kp = kept
             if margin <= kmargin and all(np.array_equal(ku[n], u[n]) for n in names):
                 return kp.select(kp.gap < margin)
-        p = measure(pair, u, margin)
+        p, survey = measure(pair, u, margin, self._surveys.get(i))
+        if survey is not None:
+            self._surveys[i] = survey
         self._measured[i] = ({n: np.array(u[n]) for n in names}, margin, p)
         return p
 

@@ -16,8 +16,12 @@ on body ``b`` as ``E_b^T lambda``: action equals reaction by construction.
 
 Finding contacts (step 2 of seed 000, "repel") uses the deformed positions: a slave node
 behind a plane or inside the master's closed surface is penetrating; its row is taken
-from its closest point on the deformed master. Rows are kept while the node stays in
-contact (contact memory), so the compliance of a row is computed once.
+from its closest point on the deformed master. :func:`measure` searches only the nodes
+that can be near (a :class:`Survey` of the last measurement bounds how far the others
+still are) and only the master's triangles near them: the iteration measures every pair
+at every update, and a deformed surface's search tree is built anew each time. Rows are
+kept while the node stays in contact (contact memory), so the compliance of a row is
+computed once.
 """
 
 from __future__ import annotations
@@ -32,12 +36,14 @@ from numpy.typing import NDArray
 
 from .body import ElasticBody
 from .geometry import Plane
+from .surfacequery import DEGENERATE_TOL, Closest, TriangleSurface, degenerate_triangles
 
 __all__ = [
     "ContactPair",
     "ContactRows",
     "MortarCandidates",
     "Penetrations",
+    "Survey",
     "measure",
     "mortar_candidates",
 ]
@@ -132,10 +138,53 @@ class Penetrations:
         )
 
 
-def measure(pair: ContactPair, u: dict[str, NDArray[np.float64]], margin: float) -> Penetrations:
+@dataclass(frozen=True)
+class Survey:
+    """What one measurement of a pair tells of the next: who cannot be near yet.
+
+    The distance from a point to a surface moves by at most the point's own
+    displacement plus the largest displacement of the surface's nodes (barycentric
+    interpolation moves no surface point further than its nodes), and a point that stays
+    off the surface all the way cannot change sides. So a candidate that was outside at
+    distance ``d`` is still outside, further than ``d`` less those two displacements:
+    where that bound exceeds the margin, it is not queried again.
+
+    Attributes
+    ----------
+    u_slave : ndarray, shape (c, 3)
+        The candidates' displacements at the measurement.
+    u_master : ndarray, shape (s, 3)
+        The master's contact nodes' displacements then.
+    clear : ndarray, shape (c,)
+        A lower bound of each candidate's distance to the master then, each known
+        outside where it is positive (0: inside, or not known).
+    """
+
+    u_slave: NDArray[np.float64]
+    u_master: NDArray[np.float64]
+    clear: NDArray[np.float64]
+
+
+def measure(
+    pair: ContactPair,
+    u: dict[str, NDArray[np.float64]],
+    margin: float,
+    survey: Survey | None = None,
+) -> tuple[Penetrations, Survey | None]:
     """Gaps of a pair's candidates at the displaced positions ``x + u``.
 
-    Only slave nodes within ``margin`` of the master's bounding box are examined.
+    Only slave nodes within ``margin`` of the master's bounding box are examined. Against
+    a closed master surface, the nodes a ``survey`` of an earlier measurement shows to be
+    further than ``margin`` are skipped, and the others are searched on the patch of the
+    master near them (a node the patch cannot answer for is searched on the whole
+    surface): the result is that of a search of every node on the whole surface.
+
+    Returns
+    -------
+    Penetrations
+        The nodes within ``margin`` (or inside).
+    Survey or None
+        For the next measurement of the pair (None for a plane or an open master).
     """
     slave = pair.slave
     nodes = pair.candidates
@@ -151,47 +200,87 @@ def measure(pair: ContactPair, u: dict[str, NDArray[np.float64]], margin: float)
             np.full((k, 3), -1, np.int64),
             np.zeros((k, 3)),
             np.broadcast_to(plane.normal, (k, 3)).copy(),
-        )
-    from .surfacequery import DEGENERATE_TOL, WINDING_THRESHOLD, TriangleSurface
-
+        ), None
     master: ElasticBody = pair.master  # type: ignore[assignment]
     tri = master.contact_triangles
     xm = master.mesh.points + u[master.name]
     used = master.contact_nodes
-    lo, hi = xm[used].min(axis=0) - margin, xm[used].max(axis=0) + margin
-    box = np.all((xs >= lo) & (xs <= hi), axis=1)
-    if not box.any():
-        return Penetrations.empty()
-    nodes, xs = nodes[box], xs[box]
+    lo, hi = xm[used].min(axis=0), xm[used].max(axis=0)
+    closed = master.contact_closed
+    # distance to the master's bounding box: a lower bound of that to the surface, and
+    # a node off the box is outside a closed surface
+    clear = np.linalg.norm(np.maximum(np.maximum(lo - xs, xs - hi), 0.0), axis=1)
+    if survey is not None and closed:
+        drift = float(np.linalg.norm(u[master.name][used] - survey.u_master, axis=1).max())
+        moved = np.linalg.norm(u[slave.name][nodes] - survey.u_slave, axis=1) + drift
+        clear = np.maximum(clear, survey.clear - moved)
+    ask = clear <= margin
+    if not ask.any():
+        return Penetrations.empty(), _survey(u, nodes, used, pair, clear) if closed else None
+    q_nodes, q = nodes[ask], xs[ask]
     # an iterate may crush a few facets far from this contact to zero area (a ball pinned
     # on planes before it has moved): they hold no area and no solid angle, so the
     # queries go on without them
-    x = xm[tri]
-    dbl = np.linalg.norm(np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), axis=1)
-    edge2 = np.max([((x[:, i] - x[:, (i + 1) % 3]) ** 2).sum(axis=1) for i in range(3)], axis=0)
-    keep = dbl > 10 * DEGENERATE_TOL * edge2
+    keep = ~degenerate_triangles(xm, tri, 10 * DEGENERATE_TOL)[2]
     if keep.all():
         surface = master.contact_surface.moved(xm)  # connectivity checked once
     else:
         tri = tri[keep]
         surface = TriangleSurface(xm, tri, name=f"{master.name} contact surface")
-    c = surface.closest(xs)
-    # a closed contact surface (a ball, a skin: checked at rest) tells inside by its
-    # winding number, robust in concave places; an open one (a pad's top) by the side of
-    # the pseudo-normal
-    if master.contact_closed:
-        inside = surface.winding_number(xs) > WINDING_THRESHOLD
-    else:
-        inside = c.side(xs) < 0
+    c = _closest_near(surface, q, 2.0 * margin)
+    # inside: the side of the closest point's pseudo-normal (Baerentzen and Aanaes: exact
+    # on a closed surface that does not overlap itself; on an open one, a pad's top, the
+    # side it faces)
+    inside = c.side(q) < 0
     gap = np.where(inside, -c.distance, c.distance)
     near = gap < margin
-    return Penetrations(
-        nodes[near],
-        gap[near],
-        tri[c.face[near]],
-        c.bary[near],
-        c.normal[near],
-    )
+    p = Penetrations(q_nodes[near], gap[near], tri[c.face[near]], c.bary[near], c.normal[near])
+    if not closed:
+        return p, None
+    clear[ask] = np.where(inside, 0.0, c.distance)
+    return p, _survey(u, nodes, used, pair, clear)
+
+
+def _survey(
+    u: dict[str, NDArray[np.float64]],
+    nodes: NDArray[np.int64],
+    used: NDArray[np.int64],
+    pair: ContactPair,
+    clear: NDArray[np.float64],
+) -> Survey:
+    return Survey(np.array(u[pair.slave.name][nodes]), np.array(u[pair.master.name][used]), clear)
+
+
+def _closest_near(surface: TriangleSurface, q: NDArray[np.float64], reach: float) -> Closest:
+    """Closest points of ``q`` on ``surface``, searched on the patch near them.
+
+    The patch holds every triangle that meets the box of the points grown by ``reach``:
+    it holds the closest point of every point nearer the surface than ``reach``. A point
+    whose closest point on the patch is further than that is searched again on the whole
+    surface.
+    """
+    lo, hi = q.min(axis=0) - reach, q.max(axis=0) + reach
+    x = surface.points
+    tri = surface.triangles
+    # per node: below (-1), within (0) or above (+1) the box, along each axis; a triangle
+    # misses the box where its three nodes lie on the same side along one axis
+    side = (x > hi).astype(np.int8) - (x < lo).astype(np.int8)
+    s = side[tri]  # (m, 3, 3): triangle, corner, axis
+    same = (s[:, 0] == s[:, 1]) & (s[:, 1] == s[:, 2]) & (s[:, 0] != 0)
+    patch = np.flatnonzero(~same.any(axis=1))
+    if patch.size == 0 or patch.size > 0.5 * len(tri):
+        return surface.closest(q)
+    c = surface.closest(q, faces=patch)
+    far = np.flatnonzero(c.distance > reach)
+    if far.size == 0:
+        return c
+    again = surface.closest(q[far])
+    fields = {}
+    for name in ("distance", "point", "face", "bary", "normal", "feature"):
+        a = getattr(c, name).copy()
+        a[far] = getattr(again, name)
+        fields[name] = a
+    return Closest(**fields)
 
 
 def _pad(a: NDArray, width: int, fill: float) -> NDArray:

@@ -23,7 +23,10 @@ every platform), chosen after measuring libigl, fcpw, Open3D, embreex and VTK
 Both acceleration structures are built lazily on the first query and rebuilt for every new
 set of coordinates (:meth:`TriangleSurface.moved`); building costs about as much as
 querying 2,000 points (a few ms for the coarse skin's 2.7k facets, 30-80 ms for the fine
-one's 18k).
+one's 18k). ``closest(x, faces=patch)`` searches a patch only, on a tree of its own, with
+the whole surface's normals. What depends on the triangles alone (closed or not, edge
+neighbours, corners around the nodes) is kept for the last few connectivities, so that a
+posed hand's skin, a new surface every frame, does not work it out again.
 
 :func:`surface_of_mesh` turns a volume mesh's boundary into outward triangles numbered as
 the volume mesh's nodes, so that the weights of a closest point act on volume nodes.
@@ -31,6 +34,7 @@ the volume mesh's nodes, so that the weights of a closest point act on volume no
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import cached_property
@@ -50,6 +54,7 @@ __all__ = [
     "SurfaceError",
     "TriangleSurface",
     "closest_on_triangles",
+    "degenerate_triangles",
     "surface_of_mesh",
 ]
 
@@ -58,6 +63,25 @@ WINDING_THRESHOLD = 0.5
 
 #: A triangle whose doubled area is below this times its longest edge squared is degenerate.
 DEGENERATE_TOL = 1e-12
+
+
+#: Topology of recent surfaces by their connectivity: closed or not, edge neighbours, the
+#: corners around each node. A posed hand's skin is a new surface every frame, on the same
+#: triangles; what depends on the triangles alone is worked out once.
+_TOPOLOGY: OrderedDict[tuple[int, bytes], dict[str, Any]] = OrderedDict()
+_TOPOLOGY_KEPT = 8
+
+
+def _topology(n_points: int, triangles: NDArray[np.int64]) -> dict[str, Any]:
+    """The shared topology record of a connectivity (made empty if new)."""
+    key = (n_points, triangles.tobytes())
+    entry = _TOPOLOGY.pop(key, None)
+    if entry is None:
+        entry = {}
+        while len(_TOPOLOGY) >= _TOPOLOGY_KEPT:
+            _TOPOLOGY.popitem(last=False)
+    _TOPOLOGY[key] = entry
+    return entry
 
 
 class SurfaceError(ContactError, ValueError):
@@ -175,6 +199,46 @@ def closest_on_triangles(
     return w
 
 
+def degenerate_triangles(
+    points: NDArray[np.float64], triangles: NDArray[np.int64], tol: float = DEGENERATE_TOL
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+    """Doubled-area vectors of triangles, their lengths, and which are degenerate.
+
+    A triangle is degenerate where its doubled area is at most ``tol`` times its longest
+    edge squared. The edges are measured only for the few triangles that could be: those
+    whose doubled area is below ``tol`` times the square of the diagonal of their bounding
+    box (no edge is longer).
+
+    Returns
+    -------
+    cross : ndarray, shape (m, 3)
+        ``(b - a) x (c - a)``.
+    dbl : ndarray, shape (m,)
+        Its length, twice the area.
+    bad : ndarray of bool, shape (m,)
+    """
+    a, b, c = (points[triangles[:, i]] for i in range(3))
+    ab, ac = b - a, c - a
+    cross = np.empty_like(ab)
+    cross[:, 0] = ab[:, 1] * ac[:, 2] - ab[:, 2] * ac[:, 1]
+    cross[:, 1] = ab[:, 2] * ac[:, 0] - ab[:, 0] * ac[:, 2]
+    cross[:, 2] = ab[:, 0] * ac[:, 1] - ab[:, 1] * ac[:, 0]
+    dbl = np.sqrt(np.einsum("ij,ij->i", cross, cross))
+    if len(triangles):
+        lo = np.minimum(np.minimum(a, b), c).min(axis=0)
+        hi = np.maximum(np.maximum(a, b), c).max(axis=0)
+        diag2 = float(np.sum((hi - lo) ** 2))
+    else:
+        diag2 = 0.0
+    bad = dbl <= tol * diag2
+    suspect = np.flatnonzero(bad)
+    if suspect.size:
+        x = points[triangles[suspect]]
+        edge2 = np.max([((x[:, i] - x[:, (i + 1) % 3]) ** 2).sum(axis=1) for i in range(3)], 0)
+        bad[suspect] = dbl[suspect] <= tol * edge2
+    return cross, dbl, bad
+
+
 def _unit(v: NDArray[np.float64]) -> NDArray[np.float64]:
     n = np.linalg.norm(v, axis=-1, keepdims=True)
     return v / np.where(n > 0, n, 1.0)
@@ -233,7 +297,10 @@ class TriangleSurface:
         tri.setflags(write=False)
         self.triangles: NDArray[np.int64] = tri
         self._set_points(pts)
-        self._closed: str | None = None  # "ok" or the error message, once checked
+        self._topology = _topology(len(pts), tri)
+        # "ok" or the error message, once checked (only "ok" is shared: a message names
+        # its surface)
+        self._closed: str | None = self._topology.get("closed")
 
     # --- construction --------------------------------------------------------------
 
@@ -255,16 +322,14 @@ class TriangleSurface:
 
     def _set_points(self, pts: NDArray[np.float64]) -> None:
         self.points: NDArray[np.float64] = pts
-        x = pts[self.triangles]
-        cross = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
-        dbl = np.linalg.norm(cross, axis=1)
-        edge2 = np.max([((x[:, i] - x[:, (i + 1) % 3]) ** 2).sum(axis=1) for i in range(3)], axis=0)
-        bad = np.flatnonzero(dbl <= DEGENERATE_TOL * edge2)
+        cross, dbl, degenerate = degenerate_triangles(pts, self.triangles, DEGENERATE_TOL)
+        bad = np.flatnonzero(degenerate)
         if bad.size:
+            x = pts[self.triangles[bad]]
             raise SurfaceError(
                 f"{self.name}: {bad.size} degenerate triangle(s) (zero area), first: triangle "
                 f"{bad[0]} {self.triangles[bad[0]].tolist()} near "
-                f"{np.round(x[bad[0]].mean(axis=0), 6).tolist()}"
+                f"{np.round(x[0].mean(axis=0), 6).tolist()}"
             )
         self.face_normals: NDArray[np.float64] = cross / dbl[:, None]
         self.areas: NDArray[np.float64] = 0.5 * dbl
@@ -287,6 +352,7 @@ class TriangleSurface:
         new.triangles = self.triangles
         new._set_points(self._check_points(points, len(self.points)))
         new._closed = self._closed
+        new._topology = self._topology
         for topology in ("_twins", "_corners"):  # depend on the triangles only
             if topology in self.__dict__:
                 new.__dict__[topology] = self.__dict__[topology]
@@ -331,7 +397,7 @@ class TriangleSurface:
         if self._closed is None:
             try:
                 fem.check_surface(self.points, self.triangles, source=self.name)
-                self._closed = "ok"
+                self._closed = self._topology["closed"] = "ok"
             except fem.MeshError as exc:
                 self._closed = f"{exc} (a closed surface is needed to tell inside from outside)"
         if self._closed != "ok":
@@ -364,6 +430,8 @@ class TriangleSurface:
     @cached_property
     def _twins(self) -> NDArray[np.int64]:
         """``twins[f, i]``: the triangle across the edge of ``f`` opposite its node ``i``."""
+        if "twins" in self._topology:
+            return self._topology["twins"]
         tri = self.triangles
         n = np.int64(self.n_points)
         a = tri[:, [1, 2, 0]].ravel()  # edge opposite node i runs from i+1 to i+2
@@ -375,14 +443,22 @@ class TriangleSurface:
         pos = np.clip(np.searchsorted(srt, rev), 0, len(srt) - 1)
         found = srt[pos] == rev
         twin = np.where(found, order[pos] // 3, np.repeat(np.arange(len(tri)), 3))
-        return twin.reshape(-1, 3)
+        twin = twin.reshape(-1, 3)
+        twin.setflags(write=False)
+        self._topology["twins"] = twin
+        return twin
 
     @cached_property
     def _corners(self) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
         """Corners ``3 f + i`` sorted by node, and where each node's run starts."""
+        if "corners" in self._topology:
+            return self._topology["corners"]
         flat = self.triangles.ravel()
         order = np.argsort(flat, kind="stable")
         start = np.searchsorted(flat[order], np.arange(self.n_points + 1))
+        order.setflags(write=False)
+        start.setflags(write=False)
+        self._topology["corners"] = (order, start)
         return order, start
 
     def vertex_normals_at(self, nodes: ArrayLike) -> NDArray[np.float64]:
@@ -430,13 +506,19 @@ class TriangleSurface:
 
     # --- queries ---------------------------------------------------------------------
 
-    def closest(self, x: ArrayLike) -> Closest:
+    def closest(self, x: ArrayLike, faces: ArrayLike | None = None) -> Closest:
         """Closest points on the surface, with facet, weights and outward normal.
 
         Parameters
         ----------
         x : array_like, shape (k, 3)
             Query points.
+        faces : array_like of int, optional
+            Search these triangles only (a patch near the points: its own tree is built
+            for this call). The result is the closest point on the patch; its normal is
+            the whole surface's (pseudo-normals from every triangle around an edge or a
+            vertex), so that :meth:`Closest.side` tells inside exactly wherever the
+            patch holds the surface's closest point.
 
         Returns
         -------
@@ -446,8 +528,20 @@ class TriangleSurface:
         if len(q) == 0:
             e = np.zeros((0, 3))
             return Closest(np.zeros(0), e, np.zeros(0, np.int64), e, e, np.zeros(0, np.int8))
-        _, face, _ = self._aabb.squared_distance(self.points, self.triangles, q)
-        face = np.asarray(face, dtype=np.int64)
+        if faces is None:
+            _, face, _ = self._aabb.squared_distance(self.points, self.triangles, q)
+            face = np.asarray(face, dtype=np.int64)
+        else:
+            sub = np.asarray(faces, dtype=np.int64)
+            if sub.ndim != 1 or sub.size == 0 or sub.min() < 0 or sub.max() >= self.n_faces:
+                raise SurfaceError(
+                    f"{self.name}: faces must list triangles 0..{self.n_faces - 1}, at least one"
+                )
+            tri = np.ascontiguousarray(self.triangles[sub])
+            tree = _igl().AABB()
+            tree.init(self.points, tri)
+            _, face, _ = tree.squared_distance(self.points, tri, q)
+            face = sub[np.asarray(face, dtype=np.int64)]
         corners = self.points[self.triangles[face]]
         w = closest_on_triangles(q, corners[:, 0], corners[:, 1], corners[:, 2])
         point = np.einsum("ki,kij->kj", w, corners)
