@@ -326,9 +326,14 @@ class StaticSolver:
         if not self.free_body:
             return self._fact.solve(r)
         phi = self.modes
-        rb = r - phi @ (phi.T @ r)
-        x = np.zeros_like(rb)
-        x[self._inner] = self._fact.solve(rb[self._inner])
+        a = phi.T @ r
+        x = np.zeros_like(r)
+        if self._fact.marked.size:
+            # J P r = J r - (J Phi) a: r itself stays nonzero on the contact zone only
+            # (marked: a short forward sweep), J Phi is kept for the partial solves
+            x[self._inner] = self._fact.solve(r[self._inner]) - self._j_phi()[self._inner] @ a
+        else:
+            x[self._inner] = self._fact.solve((r - phi @ a)[self._inner])
         return x - phi @ (phi.T @ x)
 
     # --- constraints -----------------------------------------------------------------
