@@ -11,7 +11,7 @@ from contact.body import ElasticBody
 from contact.errors import ContactError
 from contact.geometry import Plane
 from contact.iteration import ContactSettings, solve_frame
-from contact.pairs import ContactPair
+from contact.pairs import ContactPair, measure
 from contact.rigid import solve_rigid_contact
 
 R = 0.02
@@ -174,8 +174,15 @@ def test_both_directions_keep_a_fine_pad_out_of_a_coarse_ball():
     assert two.converged
     local = min(np.sqrt(b.node_areas[b.contact_nodes].min()) for b in bodies)
     assert two.max_penetration <= 1e-3 * local
-    assert one.max_penetration > 100 * two.max_penetration
     assert "pad/ball" in set(two.contacts["pair"])
+
+    # the pad's nodes inside the ball: deep one way, within the tolerance both ways
+    def pad_inside(res):
+        p, _ = measure(pairs[2], res.displacement, local)
+        return float(np.max(-p.gap, initial=0.0))
+
+    assert pad_inside(two) <= 1e-3 * local
+    assert pad_inside(one) > 10 * 1e-3 * local
 
 
 def test_bad_settings_are_named():
