@@ -45,6 +45,7 @@ from .skeleton import PIVOT_SUFFIX
 
 __all__ = [
     "RELAX_QUALITY",
+    "RELAX_RESTARTS",
     "RELAX_STALL",
     "RELAX_STOP",
     "FleshRelaxer",
@@ -65,6 +66,9 @@ RELAX_STOP = 0.2
 #: fraction of it and leave as many tetrahedra inverted (stalled: typically a tetrahedron
 #: no position of its free nodes mends).
 RELAX_STALL = 1e-4
+#: Rounds of restarts from a bone's rigid motion for the tetrahedra the passes leave
+#: inverted (:meth:`FleshRelaxer.relax`).
+RELAX_RESTARTS = 3
 
 
 def tet_volumes(points: ArrayLike, tets: ArrayLike) -> NDArray[np.float64]:
@@ -93,6 +97,30 @@ _LEVI[0, 1, 2] = _LEVI[1, 2, 0] = _LEVI[2, 0, 1] = 1.0
 _LEVI[0, 2, 1] = _LEVI[2, 1, 0] = _LEVI[1, 0, 2] = -1.0
 #: ``d^2 det F / dF_ij dF_kl = sum_mn _HDET[ij, kl, mn] F_mn`` (row-major indices).
 _HDET = np.einsum("ikm,jln->ijklmn", _LEVI, _LEVI).reshape(81, 9)
+
+
+def _cofactor(f: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Cofactor matrices of ``f`` (m, 3, 3): column k is column k+1 x column k+2."""
+    a = np.moveaxis(f, 0, -1)
+    c = np.empty_like(a)
+    for k in range(3):
+        k1, k2 = (k + 1) % 3, (k + 2) % 3
+        for i in range(3):
+            i1, i2 = (i + 1) % 3, (i + 2) % 3
+            c[i, k] = a[i1, k1] * a[i2, k2] - a[i2, k1] * a[i1, k2]
+    return np.moveaxis(c, -1, 0)
+
+
+def _regularised(j: NDArray[np.float64], d2: float) -> tuple[NDArray, NDArray]:
+    """``sqrt(j^2 + 4 d2)`` and Escobar's ``h = (j + sqrt(j^2 + 4 d2)) / 2`` of ``j``.
+
+    Without cancellation where ``j << 0`` (inverted): ``(j + r)(r - j) = 4 d2``.
+    """
+    r = np.sqrt(j * j + 4.0 * d2)
+    h = 0.5 * (j + r)
+    neg = j < 0.0
+    h[neg] = 2.0 * d2 / (r[neg] - j[neg])
+    return r, h
 
 
 def _solve(a: csr_matrix, b: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -153,6 +181,10 @@ class FleshRelaxer:
         At most this many passes (each on the tetrahedra still degraded, one ring more).
     maxiter : int
         Newton iterations per pass.
+    bone_id : array_like of int, shape (N,), optional
+        The bone each fixed node belongs to (-1 free). With it, a tetrahedron still
+        inverted after the passes restarts its neighbourhood from a bone's rigid motion
+        (see :meth:`relax`).
     """
 
     def __init__(
@@ -166,10 +198,18 @@ class FleshRelaxer:
         rings: int = 2,
         rounds: int = 3,
         maxiter: int = 40,
+        bone_id: ArrayLike | None = None,
     ) -> None:
         x = np.asarray(points, dtype=np.float64)
+        self.rest = x
         self.tets = np.ascontiguousarray(tets, dtype=np.int64)
         self.fixed = np.asarray(fixed, dtype=bool)
+        self.bone_id = None if bone_id is None else np.asarray(bone_id, dtype=np.int64)
+        if self.bone_id is not None and (
+            self.bone_id.shape != self.fixed.shape
+            or not np.array_equal(self.bone_id >= 0, self.fixed)
+        ):
+            raise ValueError("bone_id must be >= 0 exactly on the fixed nodes")
         dm = np.transpose(x[self.tets[:, 1:]] - x[self.tets[:, :1]], (0, 2, 1))
         self._bm = np.linalg.inv(dm)
         self._bmt = np.ascontiguousarray(np.transpose(self._bm, (0, 2, 1)))
@@ -211,19 +251,23 @@ class FleshRelaxer:
             grad[:, k] = np.bincount(t.ravel(), g[..., k].ravel(), minlength=len(x))
         return float(e.sum()), grad
 
+    def _energy(self, x: NDArray[np.float64], cells: NDArray[np.int64], delta: float) -> float:
+        """The energy of the tetrahedra ``cells`` alone (the line search's)."""
+        f = np.transpose(x[self.tets[cells]], (0, 2, 1)) @ self._dmat[cells]
+        j = np.einsum("ij,ij->i", f[:, :, 0], np.cross(f[:, :, 1], f[:, :, 2]))
+        _, h = _regularised(j, delta * delta)
+        nf = np.einsum("mij,mij->m", f, f)
+        w = nf * h ** (-2.0 / 3.0) / 3.0 + 0.5 * self.kappa * (h + 1.0 / h)
+        return float(self._vol[cells] @ w)
+
     def _terms(self, x, cells, delta, hessian=True):
         """Energy per tetrahedron, gradient per node (m, 4, 3) and Hessian (m, 12, 12)."""
         tets, vol, dmat = self.tets[cells], self._vol[cells], self._dmat[cells]
         f = np.transpose(x[tets], (0, 2, 1)) @ dmat
-        f0, f1, f2 = f[:, :, 0], f[:, :, 1], f[:, :, 2]
-        cof = np.stack([np.cross(f1, f2), np.cross(f2, f0), np.cross(f0, f1)], axis=2)
-        j = np.einsum("ij,ij->i", f0, cof[:, :, 0])
+        cof = _cofactor(f)
+        j = np.einsum("ij,ij->i", f[:, :, 0], cof[:, :, 0])
         d2 = delta * delta
-        r = np.sqrt(j * j + 4.0 * d2)
-        # h = (j + r) / 2 without cancellation where j << 0 (inverted): (j + r)(r - j) = 4 d^2
-        neg = j < 0.0
-        h = 0.5 * (j + r)
-        h[neg] = 2.0 * d2 / (r[neg] - j[neg])
+        r, h = _regularised(j, d2)
         nf = np.einsum("mij,mij->m", f, f)
         k = self.kappa
         h23 = h ** (-2.0 / 3.0)
@@ -239,19 +283,21 @@ class FleshRelaxer:
         wjj = (10.0 / 27.0) * nf * h23 / (h * h) + k / h**3  # d^2 W / dh^2
         cj = wjj * h1 * h1 + wj * 2.0 * d2 / r**3  # d^2 W / dJ^2
         m = len(cells)
-        hk = np.empty((m, 4, 3, 4, 3))
         # a fair tetrahedron: the convex part of the energy's Hessian in F, the
         # distortion's a |dF|^2 and the volume's curvature along cof F (the rest is
-        # indefinite): a (D D^T) x I3 + max(cj, 0) u u^T with u = d J / d x
-        fair = j > 0.25
-        ddt = self._ddt[cells[fair]] * a[fair, None, None]
-        hk[fair] = ddt[:, :, None, :, None] * np.eye(3)[None, None, :, None, :]
-        u = np.transpose(cof[fair] @ np.transpose(dmat[fair], (0, 2, 1)), (0, 2, 1))
-        u = u.reshape(-1, 12) * np.sqrt(np.maximum(cj[fair], 0.0))[:, None]
-        hk[fair] += (u[:, :, None] * u[:, None, :]).reshape(-1, 4, 3, 4, 3)
+        # indefinite): a (D D^T) x I3 + max(cj, 0) u u^T with u = d J / d x (written for
+        # every tetrahedron, then replaced on the others)
+        hk = np.zeros((m, 4, 3, 4, 3))
+        ddt = self._ddt[cells] * a[:, None, None]
+        for i in range(3):
+            hk[:, :, i, :, i] = ddt
+        hk = hk.reshape(m, 12, 12)
+        u = np.transpose(cof @ np.transpose(dmat, (0, 2, 1)), (0, 2, 1)).reshape(m, 12)
+        u *= np.sqrt(np.maximum(cj, 0.0))[:, None]
+        hk += u[:, :, None] * u[:, None, :]
         # a degenerate or inverted one: the exact Hessian in F projected on its positive
         # eigenvalues
-        bad = ~fair
+        bad = j <= 0.25
         if bad.any():
             cb = -(2.0 / 9.0) * h23[bad] / h[bad] * h1[bad]  # d^2 W / d(nf) dJ
             fv, gv = f[bad].reshape(-1, 9), cof[bad].reshape(-1, 9)
@@ -264,8 +310,9 @@ class FleshRelaxer:
             w = np.maximum(w, 1e-8 * a[bad, None])
             hf = (v * w[:, None, :]) @ np.transpose(v, (0, 2, 1))
             bm = self._bmat[cells[bad]]
-            hk[bad] = (np.transpose(bm, (0, 2, 1)) @ hf @ bm).reshape(-1, 4, 3, 4, 3)
-        return e, grad, vol[:, None, None] * hk.reshape(m, 12, 12)
+            hk[bad] = np.transpose(bm, (0, 2, 1)) @ hf @ bm
+        hk *= vol[:, None, None]
+        return e, grad, hk
 
     def relax(self, x: ArrayLike) -> tuple[NDArray[np.float64], int]:
         """Move the free nodes around the degraded tetrahedra of the posed points ``x``.
@@ -279,7 +326,7 @@ class FleshRelaxer:
         """
         x = np.asarray(x, dtype=np.float64)
         bad = self.degraded(x)
-        self.stats = {"iterations": 0, "passes": 0, "stalled": 0}
+        self.stats = {"iterations": 0, "passes": 0, "stalled": 0, "restarts": 0}
         if len(bad) == 0:
             return x, 0
         x = x.copy()
@@ -305,10 +352,117 @@ class FleshRelaxer:
             if left == 0 or (k > 0 and left == inverted):
                 break
             inverted = left
+        if self.bone_id is not None:
+            self._restart(x, moved)
         return x, int(moved.sum())
 
+    def _rigid(
+        self, x: NDArray[np.float64], bone: int
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The rest-to-posed rigid motion of a bone, from its nodes: rotation, translation.
+
+        The least-squares fit (Kabsch) of the bone's rest nodes to their posed places,
+        exact for nodes that move rigidly (to round-off).
+        """
+        nodes = np.flatnonzero(self.bone_id == bone)
+        p, q = self.rest[nodes], x[nodes]
+        pc, qc = p.mean(axis=0), q.mean(axis=0)
+        u, _, vt = np.linalg.svd((p - pc).T @ (q - qc))
+        d = np.sign(np.linalg.det(vt.T @ u.T))
+        rot = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
+        return rot, qc - pc @ rot.T
+
+    def _ring(self, nodes: NDArray[np.int64], rings: int) -> NDArray[np.int64]:
+        """``nodes`` and the nodes of the tetrahedra within ``rings`` rings of them."""
+        for _ in range(rings):
+            nodes = np.unique(self.tets[self._n2t[nodes].indices])
+        return nodes
+
+    def _restart(self, x: NDArray[np.float64], moved: NDArray[np.bool_]) -> None:
+        """Restart the neighbourhood of every tetrahedron left inverted (in place).
+
+        A tetrahedron the passes leave inverted sits in a fold that Newton's method on
+        the regularised energy cannot leave (measured on the fine hand: a split joint-gap
+        tetrahedron folded over its bone node; the untangling energy alone, with five
+        rings of free nodes, keeps it inverted, yet its rest shape carried rigidly by
+        that bone is positive). Each cluster of inverted tetrahedra (joined by a node)
+        restarts the free nodes of the tetrahedra around it from a bone's rigid motion,
+        where their rest shape is fair: the bone of the cluster's fixed nodes, or else
+        the one with most fixed nodes within two rings of it, then the next; one ring of
+        tetrahedra around the cluster, then two. The free nodes within ``rings + 1``
+        rings of the cluster (then ``rings + 2``) relax from there; a restart is kept
+        when fewer tetrahedra of that patch are inverted, undone otherwise (Newton's
+        path from a restart is sensitive to its start: the variants are tried in turn,
+        about a tenth of a second each). Up to :data:`RELAX_RESTARTS` rounds.
+        """
+        from scipy.sparse.csgraph import connected_components
+
+        for _ in range(RELAX_RESTARTS):
+            inv = np.flatnonzero(tet_volumes(x, self.tets) <= 0.0)
+            if len(inv) == 0:
+                return
+            # clusters: inverted tetrahedra joined by a node
+            a = self._n2t[:, inv]
+            _, label = connected_components(a.T @ a, directed=False)
+            mended = False
+            for c in range(label.max() + 1):
+                cluster = inv[label == c]
+                mended |= self._restart_cluster(x, moved, cluster)
+            if not mended:
+                return
+
+    def _restart_cluster(
+        self, x: NDArray[np.float64], moved: NDArray[np.bool_], cluster: NDArray[np.int64]
+    ) -> bool:
+        """Restart one cluster of inverted tetrahedra (see :meth:`_restart`): mended or not."""
+        core = np.unique(self.tets[cluster])
+        # candidate bones: the cluster's own, then the others within two rings of it
+        own = self.bone_id[core]
+        near = self.bone_id[self._ring(core, 2)]
+        own, near = own[own >= 0], near[near >= 0]
+        if len(near) == 0:
+            return False
+        count = np.bincount(near) + len(near) * np.bincount(own, minlength=near.max() + 1)
+        candidates = np.argsort(-count, kind="stable")[: min(2, int((count > 0).sum()))]
+        for patch in (self.rings + 1, self.rings + 2):
+            free = self._ring(core, patch)
+            free = free[~self.fixed[free]]
+            cells = np.unique(self._n2t[free].indices)
+            n_before = int((tet_volumes(x, self.tets[cells]) <= 0.0).sum())
+            before = x[free].copy()
+            for reach in (1, 2):
+                inner = self._ring(core, reach)
+                inner = inner[~self.fixed[inner]]
+                for b in candidates.tolist():
+                    rot, shift = self._rigid(x, b)
+                    x[inner] = self.rest[inner] @ rot.T + shift
+                    self.stats["restarts"] += 1
+                    self._minimise(x, free)
+                    if int((tet_volumes(x, self.tets[cells]) <= 0.0).sum()) < n_before:
+                        moved[free] = True
+                        return True
+                    x[free] = before
+        return False
+
     def _minimise(self, x: NDArray[np.float64], free: NDArray[np.int64]) -> None:
-        """Newton's method on the energy of the tetrahedra around ``free`` (in place)."""
+        """Newton's method on the energy of the tetrahedra around ``free`` (in place).
+
+        Each connected part of the free nodes (joined by a tetrahedron) is minimised on
+        its own: the parts share no tetrahedron, so the energy is their sum, and a part
+        that converges early (a finger's joint) does not ride along while a deeper one
+        (the wrist) takes its Newton steps and line searches.
+        """
+        from scipy.sparse.csgraph import connected_components
+
+        a = self._n2t[free]
+        _, label = connected_components(a @ a.T, directed=False)
+        order = np.argsort(label, kind="stable")
+        split = np.flatnonzero(np.diff(label[order])) + 1
+        for part in np.split(free[order], split):
+            self._newton(x, np.sort(part))
+
+    def _newton(self, x: NDArray[np.float64], free: NDArray[np.int64]) -> None:
+        """Newton's method on the tetrahedra around one connected part ``free``."""
         cells = np.unique(self._n2t[free].indices)
         tets = self.tets[cells]
         local = np.full(len(x), -1, dtype=np.int64)
@@ -347,7 +501,7 @@ class FleshRelaxer:
             t = 1.0
             while True:
                 x[free] = x0 + t * step.reshape(-1, 3)
-                e1 = float(self._terms(x, cells, delta, hessian=False)[0].sum())
+                e1 = self._energy(x, cells, delta)
                 if e1 <= e0 + 1e-4 * t * decrease or t < 1e-6:
                     break
                 t *= 0.5
@@ -445,7 +599,9 @@ class HandPoser:
         self._tets = np.ascontiguousarray(hand.flesh.cells["tetra"])
         self._regions = np.asarray(hand.flesh.regions["tetra"])
         self.relaxer = (
-            FleshRelaxer(hand.flesh.points, self._tets, hand.bone_id >= 0) if relax else None
+            FleshRelaxer(hand.flesh.points, self._tets, hand.bone_id >= 0, bone_id=hand.bone_id)
+            if relax
+            else None
         )
 
     @cached_property

@@ -123,6 +123,47 @@ def test_fine_hand_deep_single_joint_poses_keep_every_tet_positive(fine, angles)
     assert pose.relaxed > 0
 
 
+#: Single-joint limits where the relaxer's Newton passes stalled with one split
+#: tetrahedron folded over its bone node (the untangling energy alone, five rings of free
+#: nodes, kept it inverted): the restart from the bone's rigid motion mends them.
+FOLDED_POSES = [{"index_pip": 110.0}, {"ring_pip": 110.0}]
+
+
+@pytest.mark.parametrize("angles", FOLDED_POSES, ids=_pose_id)
+def test_fine_hand_fold_over_a_bone_node_is_mended_by_a_restart(fine, angles):
+    poser = HandPoser(fine)
+    pose = poser.pose(angles)  # raises PoseError naming joint and element otherwise
+    assert pose.min_quality > 0.005
+    assert poser.relaxer.stats["restarts"] >= 1 and poser.relaxer.stats["stalled"] >= 1
+    # the same relaxer without the bones (no restart) leaves the fold
+    tets = fine.flesh.cells["tetra"]
+    plain = FleshRelaxer(fine.flesh.points, tets, fine.bone_id >= 0)
+    jld = fine.flesh.points + poser.flesh_map.displacement(angles)
+    y, _ = plain.relax(jld)
+    folded = np.flatnonzero(tet_volumes(y, tets) <= 0)
+    assert 1 <= len(folded) <= 3
+    # a split tetrahedron: one node on a bone, three free (one of them a split node)
+    assert ((fine.bone_id[tets[folded]] >= 0).sum(axis=1) == 1).all()
+
+
+def test_rigid_motion_of_a_bone_is_recovered_from_its_nodes(fine):
+    """The restart's rigid motion (a least-squares fit to the bone's nodes) is the bone's
+    transform to round-off."""
+    poser = HandPoser(fine, relax=False)
+    pose = poser.pose({"index_mcp": 40.0, "index_pip": 70.0, "wrist": 30.0}, check=False)
+    relaxer = FleshRelaxer(
+        fine.flesh.points, fine.flesh.cells["tetra"], fine.bone_id >= 0, bone_id=fine.bone_id
+    )
+    names = fine.skeleton.bone_names
+    for name in ("index_middle", "carpus"):
+        rot, shift = relaxer._rigid(pose.points, names.index(name))
+        t = pose.transforms[name]
+        np.testing.assert_allclose(rot, t[:3, :3], atol=1e-12)
+        np.testing.assert_allclose(shift, t[:3, 3], atol=1e-14)
+    with pytest.raises(ValueError, match="bone_id"):
+        FleshRelaxer(fine.flesh.points, fine.flesh.cells["tetra"], fine.bone_id >= 0, bone_id=[0])
+
+
 def test_pose_error_names_joint_and_element_of_what_is_left(fine):
     """Without the relaxer the JLD mapping inverts the fine hand's index MCP at 90 deg;
     the error names the joint and the element, and lists them all."""
