@@ -91,6 +91,9 @@ def tet_quality(points: ArrayLike, tets: ArrayLike) -> NDArray[np.float64]:
     return 6.0 * np.sqrt(2.0) * v / lrms**3
 
 
+#: A tetrahedron whose ``J = det F`` is at most this takes the exact Hessian of its energy,
+#: projected on its positive eigenvalues; a fairer one its convex part.
+_EXACT_J = 0.25
 #: Levi-Civita symbol: the Hessian of ``det F`` is ``eps_ikm eps_jln F_mn``.
 _LEVI = np.zeros((3, 3, 3))
 _LEVI[0, 1, 2] = _LEVI[1, 2, 0] = _LEVI[2, 0, 1] = 1.0
@@ -123,15 +126,24 @@ def _regularised(j: NDArray[np.float64], d2: float) -> tuple[NDArray, NDArray]:
     return r, h
 
 
-def _solve(a: csr_matrix, b: NDArray[np.float64]) -> NDArray[np.float64]:
+def _solve(
+    a: csr_matrix, b: NDArray[np.float64], blocks: NDArray[np.float64]
+) -> NDArray[np.float64]:
     """The Newton step: ``a x = b`` to a relative residual of 1e-3 (inexact Newton).
 
-    Conjugate gradients preconditioned with the diagonal (``a`` is positive definite).
+    Conjugate gradients preconditioned with the inverses of ``a``'s 3 x 3 diagonal blocks
+    ``blocks`` (one a node; ``a`` is positive definite). Against the plain diagonal: a
+    tenth fewer Newton steps on the fine hand's deep poses (its exact solve by PARDISO
+    takes fewer steps still but more time: each factorisation costs about two of these).
     """
     from scipy.sparse.linalg import LinearOperator, cg
 
-    inv = 1.0 / a.diagonal()
-    m = LinearOperator(a.shape, matvec=lambda v: inv * v, dtype=np.float64)
+    inv = np.linalg.inv(blocks)
+
+    def precondition(v: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.einsum("nij,nj->ni", inv, v.reshape(-1, 3)).ravel()
+
+    m = LinearOperator(a.shape, matvec=precondition, dtype=np.float64)
     x, _ = cg(a, b, rtol=1e-3, atol=0.0, M=m, maxiter=1000)
     return x
 
@@ -297,7 +309,7 @@ class FleshRelaxer:
         hk += u[:, :, None] * u[:, None, :]
         # a degenerate or inverted one: the exact Hessian in F projected on its positive
         # eigenvalues
-        bad = j <= 0.25
+        bad = j <= _EXACT_J
         if bad.any():
             cb = -(2.0 / 9.0) * h23[bad] / h[bad] * h1[bad]  # d^2 W / d(nf) dJ
             fv, gv = f[bad].reshape(-1, 9), cof[bad].reshape(-1, 9)
@@ -326,7 +338,7 @@ class FleshRelaxer:
         """
         x = np.asarray(x, dtype=np.float64)
         bad = self.degraded(x)
-        self.stats = {"iterations": 0, "passes": 0, "stalled": 0, "restarts": 0}
+        self.stats = {"iterations": 0, "passes": 0, "stalled": 0, "restarts": 0, "polished": 0}
         if len(bad) == 0:
             return x, 0
         x = x.copy()
@@ -354,7 +366,37 @@ class FleshRelaxer:
             inverted = left
         if self.bone_id is not None:
             self._restart(x, moved)
+        self._polish(x, moved)
         return x, int(moved.sum())
+
+    def _polish(self, x: NDArray[np.float64], moved: NDArray[np.bool_]) -> None:
+        """Relax once more around the positive tetrahedra left below the stop floor.
+
+        A pass over a wide patch ends when its energy no longer falls by a thousandth:
+        one nearly flat tetrahedron among thousands passes that test (measured: quality
+        1e-4, a split tetrahedron by a bone node). Around those alone (``rings`` rings),
+        the same energy is dominated by them. Kept only if the patch's worst quality
+        improves and nothing more is inverted.
+        """
+        q = tet_quality(x, self.tets)
+        floor = RELAX_STOP * np.minimum(RELAX_QUALITY, 0.5 * self.rest_quality)
+        low = np.flatnonzero((q > 0.0) & (q < floor))
+        if len(low) == 0:
+            return
+        free = self._ring(np.unique(self.tets[low]), self.rings)
+        free = free[~self.fixed[free]]
+        if len(free) == 0:
+            return
+        cells = np.unique(self._n2t[free].indices)
+        q0 = q[cells]
+        before = x[free].copy()
+        self.stats["polished"] = len(low)
+        self._minimise(x, free)
+        q1 = tet_quality(x, self.tets[cells])
+        if (q1 <= 0.0).sum() > (q0 <= 0.0).sum() or q1[q1 > 0.0].min() < q0[q0 > 0.0].min():
+            x[free] = before
+            return
+        moved[free] = True
 
     def _rigid(
         self, x: NDArray[np.float64], bone: int
@@ -477,6 +519,8 @@ class FleshRelaxer:
         pattern, slot = np.unique(rows[keep] * n + cols[keep], return_inverse=True)
         indptr = np.searchsorted(pattern // n, np.arange(n + 1))
         indices = pattern % n
+        # the 3 x 3 diagonal block of every free node, row by row (the preconditioner's)
+        diag = np.flatnonzero(pattern // n // 3 == indices // 3)
         gslot = dof.ravel()
         gkeep = gslot >= 0
         floor = RELAX_STOP * np.minimum(RELAX_QUALITY, 0.5 * self.rest_quality[cells])
@@ -493,7 +537,8 @@ class FleshRelaxer:
             e, g, hk = self._terms(x, cells, delta)
             grad = np.bincount(gslot[gkeep], g.reshape(-1)[gkeep], minlength=n)
             data = np.bincount(slot, hk.ravel()[keep], minlength=len(pattern))
-            step = -_solve(csr_matrix((data, indices, indptr), shape=(n, n)), grad)
+            a = csr_matrix((data, indices, indptr), shape=(n, n))
+            step = -_solve(a, grad, data[diag].reshape(-1, 3, 3))
             decrease = float(grad @ step)
             self.stats["iterations"] += 1
             e0 = float(e.sum())

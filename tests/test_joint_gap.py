@@ -177,21 +177,20 @@ def test_pose_error_names_joint_and_element_of_what_is_left(fine):
 
 
 @pytest.mark.slow
-def test_fine_hand_three_quarters_of_the_limits_keep_every_tet_positive(fine):
-    """The posing benchmark's poses at 0.75 of the limits (every angle alone at each
-    limit, 40 random): 5 of 80 inverted a tetrahedron before the joint gaps were split,
-    at most one now (measured: one random pose, one split tetrahedron by the index PIP
-    with a node on the middle phalanx), named with its joint and element (minutes)."""
+@pytest.mark.parametrize("fraction", [0.75, 1.0])
+def test_fine_hand_over_the_limits_keeps_every_tet_positive(fine, fraction):
+    """The posing benchmark's poses at 0.75 and at the full limits (every angle alone at
+    each limit, 40 random poses): 5 and 42 of 80 inverted a tetrahedron before the joint
+    gaps were split, 1 and 31 before the relaxer restarted folds from a bone's rigid
+    motion, none now (measured: min quality 0.0021 / 0.0022; about 1 s / 3 s a pose on 2
+    cores, minutes in all)."""
     from benchmarks.posing import sample_range
 
-    row = sample_range(HandPoser(fine), 0.75, 40)
+    row = sample_range(HandPoser(fine), fraction, 40)
     print(
-        f"fine hand at 0.75 of the limits: {row['inverted_poses']}/{row['poses']} inverted, "
-        f"min quality {row['min_quality']:.4f}, {row['mean_s']:.2f} s a pose (max "
+        f"fine hand at {fraction} of the limits: {row['inverted_poses']}/{row['poses']} "
+        f"inverted, min quality {row['min_quality']:.4f}, {row['mean_s']:.2f} s a pose (max "
         f"{row['max_s']:.2f})"
     )
-    assert row["inverted_poses"] <= 1, row["unmended"]
-    assert len(row["unmended"]) == row["inverted_poses"]
-    for left in row["unmended"]:
-        assert left["joint"] in fine.skeleton.joint_names and left["quality"] <= 0.0
-    assert row["min_quality"] > 0.0
+    assert row["inverted_poses"] == 0, row["unmended"]
+    assert row["min_quality"] > 1e-3
