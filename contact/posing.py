@@ -174,8 +174,12 @@ class FleshRelaxer:
     tangled patch can let the count grow on the way. It stops when its energy stalls
     (:data:`RELAX_STALL`). A patch still inverted at the minimum is widened by a ring
     (``rounds``), as long as the wider patch mends more; a pass that leaves more
-    inverted than before is undone. All of it is vectorised over
-    tetrahedra: a deep pose of the coarse hand takes a few Newton steps.
+    inverted than before is undone. Each connected part of a patch is minimised on its
+    own. With ``bone_id``, a tetrahedron still inverted after the passes (a fold Newton's
+    method cannot leave) restarts its neighbourhood from a nearby bone's rigid motion
+    (:meth:`relax`); last, the positive tetrahedra left below the stop floor are
+    relaxed once more on their own. All of it is vectorised over tetrahedra: a deep
+    pose of the coarse hand takes a few Newton steps.
 
     Parameters
     ----------
@@ -328,6 +332,13 @@ class FleshRelaxer:
 
     def relax(self, x: ArrayLike) -> tuple[NDArray[np.float64], int]:
         """Move the free nodes around the degraded tetrahedra of the posed points ``x``.
+
+        Passes of Newton's method over the degraded tetrahedra and ``rings`` rings around
+        them (one ring more a pass, up to ``rounds``); then, with ``bone_id``, restarts
+        of the clusters left inverted from a bone's rigid motion (:meth:`_restart`);
+        then one relaxation around the positive tetrahedra left below the stop floor
+        (:meth:`_polish`). ``stats`` counts the Newton iterations, passes, stalls,
+        restarts and the tetrahedra polished.
 
         Returns
         -------
