@@ -48,6 +48,7 @@ __all__ = [
     "RELAX_RESTARTS",
     "RELAX_STALL",
     "RELAX_STOP",
+    "RELAX_UNTANGLE",
     "FleshRelaxer",
     "HandPoser",
     "Pose",
@@ -69,6 +70,8 @@ RELAX_STALL = 1e-4
 #: Rounds of restarts from a bone's rigid motion for the tetrahedra the passes leave
 #: inverted (:meth:`FleshRelaxer.relax`).
 RELAX_RESTARTS = 3
+#: A restart first untangles its patch until every ``J = V / V_rest`` reaches this.
+RELAX_UNTANGLE = 0.05
 
 
 def tet_volumes(points: ArrayLike, tets: ArrayLike) -> NDArray[np.float64]:
@@ -442,8 +445,9 @@ class FleshRelaxer:
         restarts the free nodes of the tetrahedra around it from a bone's rigid motion,
         where their rest shape is fair: the bone of the cluster's fixed nodes, or else
         the one with most fixed nodes within two rings of it, then the next; one ring of
-        tetrahedra around the cluster, then two. The free nodes within ``rings + 1``
-        rings of the cluster (then ``rings + 2``) relax from there; a restart is kept
+        tetrahedra around the cluster, then none, then two. The free nodes within
+        ``rings + 1`` rings of the cluster (then ``rings + 2``) are untangled from there
+        (:meth:`_untangle`), then relaxed; a restart is kept
         when fewer tetrahedra of that patch are inverted, undone otherwise (Newton's
         path from a restart is sensitive to its start: the variants are tried in turn,
         about a tenth of a second each). Up to :data:`RELAX_RESTARTS` rounds.
@@ -483,19 +487,57 @@ class FleshRelaxer:
             cells = np.unique(self._n2t[free].indices)
             n_before = int((tet_volumes(x, self.tets[cells]) <= 0.0).sum())
             before = x[free].copy()
-            for reach in (1, 2):
+            for reach in (1, 0, 2):
                 inner = self._ring(core, reach)
                 inner = inner[~self.fixed[inner]]
                 for b in candidates.tolist():
                     rot, shift = self._rigid(x, b)
                     x[inner] = self.rest[inner] @ rot.T + shift
                     self.stats["restarts"] += 1
+                    self._untangle(x, free)
                     self._minimise(x, free)
                     if int((tet_volumes(x, self.tets[cells]) <= 0.0).sum()) < n_before:
                         moved[free] = True
                         return True
                     x[free] = before
         return False
+
+    def _untangle(self, x: NDArray[np.float64], free: NDArray[np.int64]) -> None:
+        """Move ``free`` until every ``J = V / V_rest`` around them is positive (in place).
+
+        Minimises ``sum V_rest max(0, t - J)^2`` over the tetrahedra around ``free`` by
+        L-BFGS (``t`` :data:`RELAX_UNTANGLE`): the volumes alone, no distortion, so that a
+        restart is untangled before the relaxation's energy, whose barrier is gentle
+        while a tetrahedron is inverted, shapes it. Measured on the fine hand's index MCP
+        split tetrahedron in a random full-limits pose: relaxed directly from a restart it
+        stayed inverted in 30 of 34 variants; untangled first, it was mended from its own
+        bone's motion in all 4 tried.
+        """
+        from scipy.optimize import minimize
+
+        cells = np.unique(self._n2t[free].indices)
+        tets, vol, dmat = self.tets[cells], self._vol[cells], self._dmat[cells]
+        local = np.full(len(x), -1, dtype=np.int64)
+        local[free] = np.arange(len(free))
+        lt = local[tets]
+        at = lt >= 0
+        dmt = np.transpose(dmat, (0, 2, 1))
+
+        def fun(z: NDArray[np.float64]) -> tuple[float, NDArray[np.float64]]:
+            x[free] = z.reshape(-1, 3)
+            f = np.transpose(x[tets], (0, 2, 1)) @ dmat
+            cof = _cofactor(f)
+            j = np.einsum("ij,ij->i", f[:, :, 0], cof[:, :, 0])
+            short = np.maximum(RELAX_UNTANGLE - j, 0.0)
+            g = np.transpose(((-2.0 * vol * short)[:, None, None] * cof) @ dmt, (0, 2, 1))
+            grad = np.stack(
+                [np.bincount(lt[at], g[..., k][at], minlength=len(free)) for k in range(3)], 1
+            )
+            return float(vol @ (short * short)), grad.ravel()
+
+        opts = {"maxiter": 3000, "ftol": 1e-15, "gtol": 1e-12}
+        res = minimize(fun, x[free].ravel(), jac=True, method="L-BFGS-B", options=opts)
+        x[free] = res.x.reshape(-1, 3)
 
     def _minimise(self, x: NDArray[np.float64], free: NDArray[np.int64]) -> None:
         """Newton's method on the energy of the tetrahedra around ``free`` (in place).

@@ -133,7 +133,7 @@ FOLDED_POSES = [{"index_pip": 110.0}, {"ring_pip": 110.0}]
 def test_fine_hand_fold_over_a_bone_node_is_mended_by_a_restart(fine, angles):
     poser = HandPoser(fine)
     pose = poser.pose(angles)  # raises PoseError naming joint and element otherwise
-    assert pose.min_quality > 0.005
+    assert pose.min_quality > 0.002
     assert poser.relaxer.stats["restarts"] >= 1 and poser.relaxer.stats["stalled"] >= 1
     # the same relaxer without the bones (no restart) leaves the fold
     tets = fine.flesh.cells["tetra"]
