@@ -182,7 +182,7 @@ def test_fine_hand_over_the_limits_keeps_every_tet_positive(fine, fraction):
     """The posing benchmark's poses at 0.75 and at the full limits (every angle alone at
     each limit, 40 random poses): 5 and 42 of 80 inverted a tetrahedron before the joint
     gaps were split, 1 and 31 before the relaxer restarted folds from a bone's rigid
-    motion, none now (measured: min quality 0.0035 / 0.0014; about 1 s / 3 s a pose on 2
+    motion, none now (measured: min quality 0.0035 / 0.0017; about 1 s / 3 s a pose on 2
     cores, minutes in all)."""
     from benchmarks.posing import sample_range
 
