@@ -36,7 +36,13 @@ from numpy.typing import NDArray
 
 from .body import ElasticBody
 from .geometry import Plane
-from .surfacequery import DEGENERATE_TOL, Closest, TriangleSurface, degenerate_triangles
+from .surfacequery import (
+    DEGENERATE_TOL,
+    Closest,
+    SurfaceError,
+    TriangleSurface,
+    degenerate_triangles,
+)
 
 __all__ = [
     "ContactPair",
@@ -221,10 +227,12 @@ def measure(
     # an iterate may crush a few facets far from this contact to zero area (a ball pinned
     # on planes before it has moved): they hold no area and no solid angle, so the
     # queries go on without them
-    keep = ~degenerate_triangles(xm, tri, 10 * DEGENERATE_TOL)[2]
-    if keep.all():
+    try:
         surface = master.contact_surface.moved(xm)  # connectivity checked once
-    else:
+        keep = ~surface.degenerate(10 * DEGENERATE_TOL)
+    except SurfaceError:  # a facet crushed below the surface's own tolerance
+        keep = ~degenerate_triangles(xm, tri, 10 * DEGENERATE_TOL)[2]
+    if not keep.all():
         tri = tri[keep]
         surface = TriangleSurface(xm, tri, name=f"{master.name} contact surface")
     c = _closest_near(surface, q, 2.0 * margin)

@@ -129,6 +129,13 @@ def _regularised(j: NDArray[np.float64], d2: float) -> tuple[NDArray, NDArray]:
     return r, h
 
 
+def _density(
+    nf: NDArray[np.float64], h23: NDArray[np.float64], h: NDArray[np.float64], kappa: float
+) -> NDArray[np.float64]:
+    """The energy density: ``|F|^2 h^(-2/3) / 3 + kappa (h + 1/h) / 2`` (``h23 = h^(-2/3)``)."""
+    return nf * h23 / 3.0 + 0.5 * kappa * (h + 1.0 / h)
+
+
 def _solve(
     a: csr_matrix, b: NDArray[np.float64], blocks: NDArray[np.float64]
 ) -> NDArray[np.float64]:
@@ -276,8 +283,7 @@ class FleshRelaxer:
         j = np.einsum("ij,ij->i", f[:, :, 0], np.cross(f[:, :, 1], f[:, :, 2]))
         _, h = _regularised(j, delta * delta)
         nf = np.einsum("mij,mij->m", f, f)
-        w = nf * h ** (-2.0 / 3.0) / 3.0 + 0.5 * self.kappa * (h + 1.0 / h)
-        return float(self._vol[cells] @ w)
+        return float(self._vol[cells] @ _density(nf, h ** (-2.0 / 3.0), h, self.kappa))
 
     def _terms(self, x, cells, delta, hessian=True):
         """Energy per tetrahedron, gradient per node (m, 4, 3) and Hessian (m, 12, 12)."""
@@ -290,7 +296,7 @@ class FleshRelaxer:
         nf = np.einsum("mij,mij->m", f, f)
         k = self.kappa
         h23 = h ** (-2.0 / 3.0)
-        e = vol * (nf * h23 / 3.0 + 0.5 * k * (h + 1.0 / h))
+        e = vol * _density(nf, h23, h, k)
         h1 = h / r  # dh/dJ
         wj = -(2.0 / 9.0) * nf * h23 / h + 0.5 * k * (1.0 - 1.0 / (h * h))  # dW/dh
         c = wj * h1  # dW/dJ
@@ -359,9 +365,7 @@ class FleshRelaxer:
         moved = np.zeros(len(x), dtype=bool)
         inverted = int((tet_volumes(x, self.tets[bad]) <= 0.0).sum())
         for k in range(self.rounds):
-            nodes = np.unique(self.tets[bad])
-            for _ in range(self.rings + k):
-                nodes = np.unique(self.tets[self._n2t[nodes].indices])
+            nodes = self._ring(np.unique(self.tets[bad]), self.rings + k)
             free = nodes[~self.fixed[nodes]]
             if len(free) == 0:
                 break

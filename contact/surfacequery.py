@@ -224,19 +224,25 @@ def degenerate_triangles(
     cross[:, 1] = ab[:, 2] * ac[:, 0] - ab[:, 0] * ac[:, 2]
     cross[:, 2] = ab[:, 0] * ac[:, 1] - ab[:, 1] * ac[:, 0]
     dbl = np.sqrt(np.einsum("ij,ij->i", cross, cross))
-    if len(triangles):
-        lo = np.minimum(np.minimum(a, b), c).min(axis=0)
-        hi = np.maximum(np.maximum(a, b), c).max(axis=0)
-        diag2 = float(np.sum((hi - lo) ** 2))
-    else:
-        diag2 = 0.0
+    return cross, dbl, _flat(points, triangles, dbl, tol)
+
+
+def _flat(
+    points: NDArray[np.float64], triangles: NDArray[np.int64], dbl: NDArray[np.float64], tol: float
+) -> NDArray[np.bool_]:
+    """Which triangles (doubled areas ``dbl``) are degenerate (see :func:`degenerate_triangles`)."""
+    if not len(triangles):
+        return np.zeros(0, dtype=bool)
+    x = points[triangles]
+    corners = x.reshape(-1, 3)
+    diag2 = float(np.sum((corners.max(axis=0) - corners.min(axis=0)) ** 2))
     bad = dbl <= tol * diag2
     suspect = np.flatnonzero(bad)
     if suspect.size:
-        x = points[triangles[suspect]]
-        edge2 = np.max([((x[:, i] - x[:, (i + 1) % 3]) ** 2).sum(axis=1) for i in range(3)], 0)
+        y = x[suspect]
+        edge2 = np.max([((y[:, i] - y[:, (i + 1) % 3]) ** 2).sum(axis=1) for i in range(3)], 0)
         bad[suspect] = dbl[suspect] <= tol * edge2
-    return cross, dbl, bad
+    return bad
 
 
 def _unit(v: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -408,6 +414,13 @@ class TriangleSurface:
                 f"{self.name}: the triangles face inward (enclosed volume {vol:.6g}); "
                 "reverse their node order"
             )
+
+    def degenerate(self, tol: float = DEGENERATE_TOL) -> NDArray[np.bool_]:
+        """Which triangles are degenerate at ``tol``, from the areas already known.
+
+        As :func:`degenerate_triangles`, without computing the areas again.
+        """
+        return _flat(self.points, self.triangles, 2.0 * self.areas, tol)
 
     def face_nodes(self, face: ArrayLike) -> NDArray[np.int64]:
         """Node indices ``(k, 3)`` of the given faces: the nodes the weights act on."""
