@@ -97,6 +97,9 @@ def tet_quality(points: ArrayLike, tets: ArrayLike) -> NDArray[np.float64]:
 #: A tetrahedron whose ``J = det F`` is at most this takes the exact Hessian of its energy,
 #: projected on its positive eigenvalues; a fairer one its convex part.
 _EXACT_J = 0.25
+#: The most unknowns (three a free node, and the least ``J``) of the dense max-min
+#: untangling of a restart's fallback (:meth:`FleshRelaxer._maxmin`).
+_MAXMIN_VARIABLES = 1500
 #: Levi-Civita symbol: the Hessian of ``det F`` is ``eps_ikm eps_jln F_mn``.
 _LEVI = np.zeros((3, 3, 3))
 _LEVI[0, 1, 2] = _LEVI[1, 2, 0] = _LEVI[2, 0, 1] = 1.0
@@ -347,7 +350,8 @@ class FleshRelaxer:
         of the clusters left inverted from a bone's rigid motion (:meth:`_restart`);
         then one relaxation around the positive tetrahedra left below the stop floor
         (:meth:`_polish`). ``stats`` counts the Newton iterations, passes, stalls,
-        restarts and the tetrahedra polished.
+        restarts (of which ``feasible``: the max-min fallback's, :meth:`_feasible_restart`)
+        and the tetrahedra polished.
 
         Returns
         -------
@@ -358,7 +362,14 @@ class FleshRelaxer:
         """
         x = np.asarray(x, dtype=np.float64)
         bad = self.degraded(x)
-        self.stats = {"iterations": 0, "passes": 0, "stalled": 0, "restarts": 0, "polished": 0}
+        self.stats = {
+            "iterations": 0,
+            "passes": 0,
+            "stalled": 0,
+            "restarts": 0,
+            "feasible": 0,
+            "polished": 0,
+        }
         if len(bad) == 0:
             return x, 0
         x = x.copy()
@@ -504,7 +515,107 @@ class FleshRelaxer:
                         moved[free] = True
                         return True
                     x[free] = before
+        return self._feasible_restart(x, moved, cluster, core, candidates)
+
+    def _feasible_restart(
+        self,
+        x: NDArray[np.float64],
+        moved: NDArray[np.bool_],
+        cluster: NDArray[np.int64],
+        core: NDArray[np.int64],
+        candidates: NDArray[np.int64],
+    ) -> bool:
+        """The fallback of a restart: untangle by maximising the patch's least ``J``.
+
+        The penalty of :meth:`_untangle` sums the shortfalls of every tetrahedron: where
+        the free nodes of a fold cannot mend one tetrahedron without denting its
+        neighbours, its minimum keeps that one just inverted (measured on the fine
+        hand's index MCP split tetrahedron in a random full-limits pose, seed 7: every
+        restart variant left ``J`` about -0.002, however wide the patch). The least
+        ``J`` itself, maximised with the others as constraints (:meth:`_maxmin`), leaves
+        that trade: from the cluster's own free nodes carried rigidly by a candidate
+        bone, it reaches ``J`` = :data:`RELAX_UNTANGLE` on every tetrahedron of the
+        patch (``rings`` rings around the cluster). The cluster's own nodes are
+        restarted, then one ring and two rings around it; the patch is then relaxed as
+        any other, and kept when fewer of its tetrahedra are inverted.
+        """
+        free = self._ring(core, self.rings)
+        free = free[~self.fixed[free]]
+        if len(free) == 0 or 3 * len(free) > _MAXMIN_VARIABLES:
+            return False
+        cells = np.unique(self._n2t[free].indices)
+        n_before = int((tet_volumes(x, self.tets[cells]) <= 0.0).sum())
+        before = x[free].copy()
+        for reach in (0, 1, 2):
+            inner = self._ring(core, reach)
+            inner = inner[~self.fixed[inner]]
+            for b in candidates.tolist():
+                rot, shift = self._rigid(x, b)
+                x[inner] = self.rest[inner] @ rot.T + shift
+                self.stats["restarts"] += 1
+                self.stats["feasible"] += 1
+                self._maxmin(x, free)
+                self._minimise(x, free)
+                if int((tet_volumes(x, self.tets[cells]) <= 0.0).sum()) < n_before:
+                    moved[free] = True
+                    return True
+                x[free] = before
         return False
+
+    def _maxmin(self, x: NDArray[np.float64], free: NDArray[np.int64]) -> None:
+        """Move ``free`` to maximise the least ``J = V / V_rest`` around them (in place).
+
+        ``max t`` subject to ``J_i >= t`` for every tetrahedron ``i`` around ``free`` and
+        ``t <=`` :data:`RELAX_UNTANGLE`, by sequential quadratic programming (SLSQP,
+        dense: a small patch only, :data:`_MAXMIN_VARIABLES`), in the displacements
+        scaled by the patch's mean edge length so that the problem is of order one.
+        """
+        from scipy.optimize import minimize
+
+        cells = np.unique(self._n2t[free].indices)
+        tets, dmat = self.tets[cells], self._dmat[cells]
+        dmt = np.transpose(dmat, (0, 2, 1))
+        local = np.full(len(x), -1, dtype=np.int64)
+        local[free] = np.arange(len(free))
+        lt = local[tets]
+        at = lt >= 0
+        rows = np.broadcast_to(np.arange(len(cells))[:, None, None], (len(cells), 4, 3))[at]
+        cols = (3 * lt[:, :, None] + np.arange(3))[at]
+        h = float(np.cbrt(self._vol[cells].mean()))
+        x0 = x[free].copy()
+        n = 3 * len(free)
+
+        def volumes(z: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+            x[free] = x0 + h * z[:n].reshape(-1, 3)
+            f = np.transpose(x[tets], (0, 2, 1)) @ dmat
+            cof = _cofactor(f)
+            return np.einsum("ij,ij->i", f[:, :, 0], cof[:, :, 0]), cof
+
+        def margin(z: NDArray[np.float64]) -> NDArray[np.float64]:
+            return volumes(z)[0] - z[n]
+
+        def margin_jac(z: NDArray[np.float64]) -> NDArray[np.float64]:
+            _, cof = volumes(z)
+            g = h * np.transpose(cof @ dmt, (0, 2, 1))  # dJ / dz, (m, 4, 3)
+            jac = np.zeros((len(cells), n + 1))
+            jac[rows, cols] = g[at]
+            jac[:, n] = -1.0
+            return jac
+
+        z0 = np.zeros(n + 1)
+        z0[n] = volumes(z0)[0].min() - 0.01
+        objective = np.zeros(n + 1)
+        objective[n] = -1.0
+        res = minimize(
+            lambda z: -z[n],
+            z0,
+            jac=lambda z: objective,
+            bounds=[(None, None)] * n + [(None, RELAX_UNTANGLE)],
+            constraints=[{"type": "ineq", "fun": margin, "jac": margin_jac}],
+            method="SLSQP",
+            options={"maxiter": 200},
+        )
+        volumes(res.x)
 
     def _untangle(self, x: NDArray[np.float64], free: NDArray[np.int64]) -> None:
         """Move ``free`` until every ``J = V / V_rest`` around them is positive (in place).

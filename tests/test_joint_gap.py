@@ -146,6 +146,33 @@ def test_fine_hand_fold_over_a_bone_node_is_mended_by_a_restart(fine, angles):
     assert ((fine.bone_id[tets[folded]] >= 0).sum(axis=1) == 1).all()
 
 
+def _random_full_limits_pose(limits: dict, seed: int, index: int) -> dict[str, float]:
+    """Pose ``index`` of the random full-limits poses of benchmarks.posing.sample_range."""
+    rng = np.random.default_rng(seed)
+    poses = [{k: rng.uniform(lo, hi) for k, (lo, hi) in limits.items()} for _ in range(index + 1)]
+    return poses[index]
+
+
+@pytest.mark.slow
+def test_fine_hand_fold_no_restart_untangles_is_mended_by_the_max_min_fallback(fine):
+    """A random full-limits pose (seed 7, the 23rd: wrist 69 deg, index MCP 85 deg with
+    15 deg pivot, little PIP 105 deg) folds the index MCP's split tetrahedron 88404 (one
+    node on the index proximal phalanx, three free) so that no restart untangled by the
+    summed penalty mends it (its ``J`` stays about -0.002); the fallback maximising the
+    patch's least ``J`` does (measured: min quality 0.0024)."""
+    angles = _random_full_limits_pose(fine.skeleton.limits, 7, 22)
+    assert angles["index_mcp"] == pytest.approx(84.9, abs=0.05)
+    poser = HandPoser(fine)
+    pose = poser.pose(angles)  # raises PoseError naming joint and element otherwise
+    assert len(pose.inverted) == 0 and pose.min_quality > 1e-3
+    stats = poser.relaxer.stats
+    assert stats["restarts"] >= 1 and stats["feasible"] >= 1
+    tets = fine.flesh.cells["tetra"]
+    jld = fine.flesh.points + poser.flesh_map.displacement(angles)
+    assert tet_volumes(jld, tets[[88404]])[0] < 0.0
+    assert (fine.bone_id[tets[88404]] >= 0).sum() == 1
+
+
 def test_rigid_motion_of_a_bone_is_recovered_from_its_nodes(fine):
     """The restart's rigid motion (a least-squares fit to the bone's nodes) is the bone's
     transform to round-off."""

@@ -10,7 +10,15 @@ import fem
 from contact.errors import PoseError, RigError
 from contact.hand import load_hand
 from contact.keyframes import Keyframes
-from contact.posing import HandPoser, Pose, pose_hand, tet_quality
+from contact.posing import (
+    RELAX_UNTANGLE,
+    FleshRelaxer,
+    HandPoser,
+    Pose,
+    pose_hand,
+    tet_quality,
+    tet_volumes,
+)
 from contact.skeleton import PIVOT_SUFFIX
 
 #: Fraction of the joint limits of the quick random poses.
@@ -169,6 +177,21 @@ def test_relaxer_leaves_fair_poses_alone_and_untangles(hand, poser):
     mild = {"index_mcp": 10.0}
     assert poser.pose(mild).relaxed == 0
     assert np.array_equal(poser.pose(mild).points, jld_only.pose(mild).points)
+
+
+def test_max_min_untangling_lifts_the_least_volume_to_its_target():
+    """The restart's fallback (FleshRelaxer._maxmin) moves the free node of a flipped
+    tetrahedron until its ``J`` reaches RELAX_UNTANGLE, the fixed nodes held."""
+    rest = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.2, 0.2, 1.0]]) * 1e-3
+    tets = np.array([[0, 1, 2, 3]])
+    fixed = np.array([True, True, True, False])
+    relaxer = FleshRelaxer(rest, tets, fixed, bone_id=np.array([0, 0, 0, -1]))
+    x = rest.copy()
+    x[3, 2] = -0.5e-3  # through the fixed face: J = -0.5
+    relaxer._maxmin(x, np.array([3]))
+    j = tet_volumes(x, tets)[0] / tet_volumes(rest, tets)[0]
+    assert j == pytest.approx(RELAX_UNTANGLE, abs=1e-6)
+    np.testing.assert_array_equal(x[:3], rest[:3])
 
 
 def test_sequence_to_png_frames_and_gif(hand, poser, tmp_path):
