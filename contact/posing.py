@@ -74,6 +74,25 @@ RELAX_RESTARTS = 3
 RELAX_UNTANGLE = 0.05
 
 
+def _edges(
+    points: ArrayLike, tets: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The edges from the first node of every tetrahedron to the other three, (M, 3) each."""
+    x = np.asarray(points, dtype=np.float64)
+    t = np.asarray(tets)
+    x0 = x[t[:, 0]]
+    return x[t[:, 1]] - x0, x[t[:, 2]] - x0, x[t[:, 3]] - x0
+
+
+def _triple(a: NDArray, b: NDArray, c: NDArray) -> NDArray[np.float64]:
+    """``a . (b x c)`` row by row, written out (a third of ``np.cross``'s time)."""
+    return (
+        a[:, 0] * (b[:, 1] * c[:, 2] - b[:, 2] * c[:, 1])
+        + a[:, 1] * (b[:, 2] * c[:, 0] - b[:, 0] * c[:, 2])
+        + a[:, 2] * (b[:, 0] * c[:, 1] - b[:, 1] * c[:, 0])
+    )
+
+
 def tet_volumes(points: ArrayLike, tets: ArrayLike) -> NDArray[np.float64]:
     """Signed volumes of tetrahedra (positive for VTK's orientation), shape (M,)."""
     x = np.asarray(points, dtype=np.float64)[np.asarray(tets)]
@@ -87,11 +106,11 @@ def tet_quality(points: ArrayLike, tets: ArrayLike) -> NDArray[np.float64]:
     1 for the regular tetrahedron, 0 for a flat one, negative for an inverted one
     (``l_rms`` is the root mean square of the six edge lengths).
     """
-    x = np.asarray(points, dtype=np.float64)[np.asarray(tets)]
-    e = x[:, [1, 2, 3, 2, 3, 3]] - x[:, [0, 0, 0, 1, 1, 2]]
-    lrms = np.sqrt((e * e).sum(-1).mean(-1))
-    v = np.einsum("ij,ij->i", np.cross(e[:, 0], e[:, 1]), e[:, 2]) / 6.0
-    return 6.0 * np.sqrt(2.0) * v / lrms**3
+    a, b, c = _edges(points, tets)
+    ba, ca, cb = b - a, c - a, c - b
+    sq = sum(np.einsum("ij,ij->i", e, e) for e in (a, b, c, ba, ca, cb))
+    v = _triple(a, b, c) / 6.0
+    return 6.0 * np.sqrt(2.0) * v / (sq / 6.0) ** 1.5
 
 
 #: A tetrahedron whose ``J = det F`` is at most this takes the exact Hessian of its energy,
@@ -263,10 +282,27 @@ class FleshRelaxer:
         )
         self.stats: dict[str, int] = {}
 
-    def degraded(self, x: NDArray[np.float64]) -> NDArray[np.int64]:
-        """Tetrahedra below :data:`RELAX_QUALITY` and below half their rest quality."""
-        q = tet_quality(x, self.tets)
+    def degraded(
+        self, x: NDArray[np.float64], quality: NDArray[np.float64] | None = None
+    ) -> NDArray[np.int64]:
+        """Tetrahedra below :data:`RELAX_QUALITY` and below half their rest quality.
+
+        ``quality``: every tetrahedron's quality at ``x``, if known (else computed).
+        """
+        q = tet_quality(x, self.tets) if quality is None else quality
         return np.flatnonzero((q < RELAX_QUALITY) & (q < 0.5 * self.rest_quality))
+
+    def _requality(
+        self, q: NDArray[np.float64], x: NDArray[np.float64], nodes: NDArray[np.int64]
+    ) -> None:
+        """Update the qualities ``q`` of the tetrahedra around ``nodes`` (moved) in place.
+
+        A pass, a restart or the polish moves a patch: the rest of the mesh keeps its
+        quality, so only the patch's tetrahedra are measured again (on the fine hand a
+        whole-mesh quality costs several times a mild pose's Newton steps).
+        """
+        cells = np.unique(self._n2t[nodes].indices)
+        q[cells] = tet_quality(x, self.tets[cells])
 
     def energy(
         self, x: NDArray[np.float64], cells: NDArray[np.int64] | None = None
@@ -361,7 +397,8 @@ class FleshRelaxer:
             Free nodes moved.
         """
         x = np.asarray(x, dtype=np.float64)
-        bad = self.degraded(x)
+        q = tet_quality(x, self.tets)
+        bad = self.degraded(x, q)
         self.stats = {
             "iterations": 0,
             "passes": 0,
@@ -374,7 +411,7 @@ class FleshRelaxer:
             return x, 0
         x = x.copy()
         moved = np.zeros(len(x), dtype=bool)
-        inverted = int((tet_volumes(x, self.tets[bad]) <= 0.0).sum())
+        inverted = int((q[bad] <= 0.0).sum())
         for k in range(self.rounds):
             nodes = self._ring(np.unique(self.tets[bad]), self.rings + k)
             free = nodes[~self.fixed[nodes]]
@@ -384,30 +421,33 @@ class FleshRelaxer:
             self.stats["passes"] += 1
             before = x[free].copy()
             self._minimise(x, free)
-            bad = self.degraded(x)
-            left = int((tet_volumes(x, self.tets[bad]) <= 0.0).sum())
+            self._requality(q, x, free)
+            bad = self.degraded(x, q)
+            left = int((q[bad] <= 0.0).sum())
             if left > inverted:  # worse than before the pass: undo it
                 x[free] = before
+                self._requality(q, x, free)
                 break
             # done, or a wider patch did not help: what is left is reported by the caller
             if left == 0 or (k > 0 and left == inverted):
                 break
             inverted = left
         if self.bone_id is not None:
-            self._restart(x, moved)
-        self._polish(x, moved)
+            self._restart(x, moved, q)
+        self._polish(x, moved, q)
         return x, int(moved.sum())
 
-    def _polish(self, x: NDArray[np.float64], moved: NDArray[np.bool_]) -> None:
+    def _polish(
+        self, x: NDArray[np.float64], moved: NDArray[np.bool_], q: NDArray[np.float64]
+    ) -> None:
         """Relax once more around the positive tetrahedra left below the stop floor.
 
         A pass over a wide patch ends when its energy no longer falls by a thousandth:
         one nearly flat tetrahedron among thousands passes that test (measured: quality
         1e-4, a split tetrahedron by a bone node). Around those alone (``rings`` rings),
         the same energy is dominated by them. Kept only if the patch's worst quality
-        improves and nothing more is inverted.
+        improves and nothing more is inverted. ``q``: the qualities at ``x``.
         """
-        q = tet_quality(x, self.tets)
         floor = RELAX_STOP * np.minimum(RELAX_QUALITY, 0.5 * self.rest_quality)
         low = np.flatnonzero((q > 0.0) & (q < floor))
         if len(low) == 0:
@@ -449,7 +489,9 @@ class FleshRelaxer:
             nodes = np.unique(self.tets[self._n2t[nodes].indices])
         return nodes
 
-    def _restart(self, x: NDArray[np.float64], moved: NDArray[np.bool_]) -> None:
+    def _restart(
+        self, x: NDArray[np.float64], moved: NDArray[np.bool_], q: NDArray[np.float64]
+    ) -> None:
         """Restart the neighbourhood of every tetrahedron left inverted (in place).
 
         A tetrahedron the passes leave inverted sits in a fold that Newton's method on
@@ -465,12 +507,13 @@ class FleshRelaxer:
         (:meth:`_untangle`), then relaxed; a restart is kept
         when fewer tetrahedra of that patch are inverted, undone otherwise (Newton's
         path from a restart is sensitive to its start: the variants are tried in turn,
-        about a tenth of a second each). Up to :data:`RELAX_RESTARTS` rounds.
+        about a tenth of a second each). Up to :data:`RELAX_RESTARTS` rounds. ``q``: the
+        qualities at ``x``, kept up to date.
         """
         from scipy.sparse.csgraph import connected_components
 
         for _ in range(RELAX_RESTARTS):
-            inv = np.flatnonzero(tet_volumes(x, self.tets) <= 0.0)
+            inv = np.flatnonzero(q <= 0.0)
             if len(inv) == 0:
                 return
             # clusters: inverted tetrahedra joined by a node
@@ -480,6 +523,8 @@ class FleshRelaxer:
             for c in range(label.max() + 1):
                 cluster = inv[label == c]
                 mended |= self._restart_cluster(x, moved, cluster)
+                # every patch a restart moves lies within rings + 2 rings of the cluster
+                self._requality(q, x, self._ring(np.unique(self.tets[cluster]), self.rings + 2))
             if not mended:
                 return
 
