@@ -30,8 +30,9 @@ from fem.statics import solve_saddle
 
 from .body import ElasticBody
 from .errors import ContactError
+from .lcp import LcpResult, solve_lcp
 
-__all__ = ["BodyState", "ContactSpace"]
+__all__ = ["BodyState", "ContactSpace", "ContactSystem"]
 
 
 @dataclass(frozen=True)
@@ -51,6 +52,34 @@ class BodyState:
     u: NDArray[np.float64]
     reactions: NDArray[np.float64]
     rigid: NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class ContactSystem:
+    """The contact-space system ``[[W, G], [G^T, 0]] [lam; a] = [rhs; c]`` of a row set.
+
+    Attributes
+    ----------
+    w : ndarray, shape (m, m)
+        Delassus operator.
+    g : ndarray, shape (m, r)
+        The rows' values of the free bodies' placing modes.
+    rhs : ndarray, shape (m,)
+        ``-(g0 + sum_b E_b u0_b)``.
+    c : ndarray, shape (r,)
+        Minus the free bodies' loads in their modes.
+    free : tuple of str
+        The free bodies.
+    load_scale : float
+        Size of the free bodies' loads.
+    """
+
+    w: NDArray[np.float64]
+    g: NDArray[np.float64]
+    rhs: NDArray[np.float64]
+    c: NDArray[np.float64]
+    free: tuple[str, ...]
+    load_scale: float
 
 
 class ContactSpace:
@@ -91,6 +120,61 @@ class ContactSpace:
             reactions[s.prescribed] = s.k[s.prescribed] @ u - f[s.prescribed]
         return BodyState(u, reactions, np.asarray(rigid, dtype=np.float64))
 
+    def system(self, e: dict[str, sp.csr_matrix], g0: NDArray[np.float64]) -> ContactSystem:
+        """The contact-space system of rows ``e`` with reference gaps ``g0``.
+
+        Parameters
+        ----------
+        e : dict of str to sparse matrix
+            Each body's part ``E_b`` (m x n_dofs_b) of the rows.
+        g0 : ndarray, shape (m,)
+            Reference gaps of the rows.
+        """
+        m = g0.size
+        w = np.zeros((m, m))
+        rhs = -np.asarray(g0, dtype=np.float64).copy()
+        g_cols: list[NDArray] = []
+        balance: list[NDArray] = []
+        free: list[ElasticBody] = []
+        for body in self.bodies:
+            eb = e.get(body.name)
+            s = body.solver
+            if eb is not None and m:
+                w += s.compliance(eb)
+                rhs -= eb @ self.own_response(body)
+            if s.free_body:
+                free.append(body)
+                phi = s.placing_modes
+                g_cols.append(eb @ phi if eb is not None else np.zeros((m, phi.shape[1])))
+                balance.append(-(phi.T @ body.loads))
+        return ContactSystem(
+            w=w,
+            g=np.hstack(g_cols) if g_cols else np.zeros((m, 0)),
+            rhs=rhs,
+            c=np.concatenate(balance) if balance else np.zeros(0),
+            free=tuple(b.name for b in free),
+            load_scale=max((float(np.linalg.norm(b.loads)) for b in free), default=0.0),
+        )
+
+    def states(
+        self, e: dict[str, sp.csr_matrix], lam: NDArray[np.float64], a: NDArray[np.float64]
+    ) -> dict[str, BodyState]:
+        """Every body's state under contact forces ``lam`` and rigid-mode amplitudes ``a``."""
+        m = lam.size
+        states = {}
+        k = 0
+        for body in self.bodies:
+            eb = e.get(body.name)
+            forces = eb.T @ lam if eb is not None and m else np.zeros(body.mesh.n_dofs)
+            rigid = np.zeros(0)
+            if body.solver.free_body:
+                r = body.solver.placing_modes.shape[1]
+                rigid = np.zeros(6)
+                rigid[:r] = a[k : k + r]
+                k += r
+            states[body.name] = self.state(body, forces, rigid)
+        return states
+
     def solve(
         self, e: dict[str, sp.csr_matrix], g0: NDArray[np.float64]
     ) -> tuple[NDArray[np.float64], dict[str, BodyState]]:
@@ -115,40 +199,55 @@ class ContactSpace:
         ContactError
             When the contacts do not hold a free body whose loads are out of balance.
         """
-        m = g0.size
-        w = np.zeros((m, m))
-        rhs = -np.asarray(g0, dtype=np.float64).copy()
-        g_cols: list[NDArray] = []
-        balance: list[NDArray] = []
-        free: list[ElasticBody] = []
-        for body in self.bodies:
-            eb = e.get(body.name)
-            s = body.solver
-            if eb is not None and m:
-                w += s.compliance(eb)
-                rhs -= eb @ self.own_response(body)
-            if s.free_body:
-                free.append(body)
-                phi = s.placing_modes
-                g_cols.append(eb @ phi if eb is not None else np.zeros((m, phi.shape[1])))
-                balance.append(-(phi.T @ body.loads))
-        g = np.hstack(g_cols) if g_cols else np.zeros((m, 0))
-        c = np.concatenate(balance) if balance else np.zeros(0)
-        scale = max((float(np.linalg.norm(b.loads)) for b in free), default=0.0)
-        lam, a = _saddle(w, g, rhs, c, [b.name for b in free], scale)
-        states = {}
-        k = 0
-        for body in self.bodies:
-            eb = e.get(body.name)
-            forces = eb.T @ lam if eb is not None and m else np.zeros(body.mesh.n_dofs)
-            rigid = np.zeros(0)
-            if body.solver.free_body:
-                r = body.solver.placing_modes.shape[1]
-                rigid = np.zeros(6)
-                rigid[:r] = a[k : k + r]
-                k += r
-            states[body.name] = self.state(body, forces, rigid)
-        return lam, states
+        sys_ = self.system(e, g0)
+        lam, a = _saddle(sys_.w, sys_.g, sys_.rhs, sys_.c, list(sys_.free), sys_.load_scale)
+        return lam, self.states(e, lam, a)
+
+    def solve_unilateral(
+        self,
+        e: dict[str, sp.csr_matrix],
+        g0: NDArray[np.float64],
+        tol: NDArray[np.float64],
+        start: NDArray[np.float64] | None = None,
+    ) -> tuple[LcpResult, dict[str, BodyState]]:
+        """Contact forces of candidate rows that may open: the frictionless LCP.
+
+        Each row either closes with a force pushing the bodies apart or stays open with
+        a linearised gap of at least ``-tol`` (:func:`contact.lcp.solve_lcp`).
+
+        Parameters
+        ----------
+        e, g0
+            As for :meth:`solve`.
+        tol : ndarray, shape (m,)
+            Gap tolerance of each row (m).
+        start : ndarray, shape (m,), optional
+            Forces to start from (the last ones of a set that grew).
+
+        Returns
+        -------
+        result : LcpResult
+        states : dict of str to BodyState
+
+        Raises
+        ------
+        ContactError
+            When the contacts do not hold a free body whose loads are out of balance.
+        """
+        sys_ = self.system(e, g0)
+        try:
+            res = solve_lcp(
+                sys_.w,
+                sys_.g,
+                sys_.rhs,
+                sys_.c,
+                tol=tol,
+                start=start,
+                load_scale=sys_.load_scale,
+            )
+        except fem.LoadError:
+            raise ContactError(_unheld(list(sys_.free))) from None
+        return res, self.states(e, res.lam, res.a)
 
 
 def _saddle(
@@ -158,7 +257,11 @@ def _saddle(
     try:
         return solve_saddle(w, g, rhs, c, load_scale)
     except fem.LoadError:
-        raise ContactError(
-            f"nothing holds {', '.join(free)}: the contacts do not hold it in every "
-            "direction and its loads are out of balance in the free ones"
-        ) from None
+        raise ContactError(_unheld(free)) from None
+
+
+def _unheld(free: list[str]) -> str:
+    return (
+        f"nothing holds {', '.join(free)}: the contacts do not hold it in every "
+        "direction and its loads are out of balance in the free ones"
+    )

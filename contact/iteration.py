@@ -17,10 +17,17 @@ one *Dirichlet* body (the ball) and the others (the hand):
    state; relax the others' answer (none, a fixed factor, or Aitken's).
 
 It converges only where the ball is the softer side (the others then act as a mould stiffer
-than it). ``"contact-space"`` (the default)
-solves, for each contact set, the fixed point of steps 2 to 5 directly with the Delassus
-operator of both bodies (:class:`contact.delassus.ContactSpace`): the outer loop only adds
-penetrating nodes and releases pulling ones.
+than it). ``"contact-space"`` (the default) solves the fixed point of steps 2 to 5 directly
+with the Delassus operator of both bodies (:class:`contact.delassus.ContactSpace`). Its
+rows are candidates: for the rows linearised so far, the unilateral solve
+(:mod:`contact.lcp`) closes those that must push and leaves the others open at zero force,
+so a row that pulls is opened there, at no cost in back-solves, and is taken again there
+if the linearised gaps need it. The outer loop only brings geometry: it measures the
+deformed bodies, adds a row for each node found inside its master and linearises stale
+rows again, and stops when the measure finds nothing new. The set of rows only grows
+within a frame (rows left far behind by a body that moved off are dropped), so the outer
+loop cannot cycle by releasing and taking the same contacts in turn, as it did where
+rows both ways meet (two-pass node-to-surface contact over-constrains there).
 
 Each body is factored once (when it is built); nothing is refactored here.
 """
@@ -46,7 +53,14 @@ from .pairs import ContactPair, ContactRows, Penetrations, Survey, measure, mort
 from .results import FrameResult, IterationRecord
 from .zone import master_zone, slave_zone
 
-__all__ = ["ALGORITHMS", "CYCLE_RELEASE", "RELAXATIONS", "ContactSettings", "solve_frame"]
+__all__ = [
+    "ALGORITHMS",
+    "CYCLE_RELEASE",
+    "LCP_TOLERANCE",
+    "RELAXATIONS",
+    "ContactSettings",
+    "solve_frame",
+]
 
 log = logging.getLogger(__name__)
 
@@ -58,12 +72,20 @@ RELAXATIONS = ("none", "fixed", "aitken")
 #: fraction of the largest contact force (a second repetition stops the frame: "cycling").
 CYCLE_RELEASE = 1e-4
 #: A node in contact found inside another facet of its master, whose normal differs from
-#: its rows' by more than arccos of this (about 8 degrees), is in a concave corner: it
-#: keeps its row and gets one for that facet too, up to ``CORNER_ROWS`` rows in all.
-CORNER_COS = 0.99
+#: its rows' by more than arccos of this (about 0.8 degree), is in a concave corner or
+#: crease: it keeps its row and gets one for that facet too, up to ``CORNER_ROWS`` rows in
+#: all. Nearly flat creases count: on one row at a time, a node there would move from
+#: facet to facet; two rows that nearly repeat one another are safe for the unilateral
+#: solve (it opens the one not needed).
+CORNER_COS = 0.9999
 CORNER_ROWS = 3
 #: Times a contact row may be linearised again on the same facet in one frame.
 RELINEARISE = 8
+#: The unilateral solve leaves a row open when its linearised gap is at least minus this
+#: fraction of the penetration tolerance (``gap_tolerance`` times the element size): the
+#: rest of the tolerance is for the linearisation's error, so that the nonlinear measure
+#: does not find the node inside and take it again.
+LCP_TOLERANCE = 0.5
 
 
 @dataclass(frozen=True)
@@ -321,12 +343,22 @@ class _Frame:
         """Penetration tolerance of slave nodes (m)."""
         return self.settings.gap_tolerance * self.local[pair.slave.name][nodes]
 
+    def row_tol(self, rows: ContactRows) -> NDArray[np.float64]:
+        """Penetration tolerance of every row's slave node (m)."""
+        out = np.zeros(len(rows))
+        for i, pair in enumerate(self.pairs):
+            mine = rows.pair == i
+            if mine.any():
+                out[mine] = self.tol(pair, rows.node[mine])
+        return out
+
     def new_rows(
         self,
         rows: ContactRows,
         u: dict[str, NDArray],
         touching: bool,
         released: NDArray[np.bool_] | None = None,
+        idle: NDArray[np.bool_] | None = None,
     ) -> tuple[ContactRows, int, float]:
         """The next contact set: rows released, penetrating nodes added, stale rows renewed.
 
@@ -340,6 +372,10 @@ class _Frame:
             Also take nodes within the tolerance outside (the first contact set).
         released : ndarray of bool, optional
             Rows to drop (pulling); their nodes are not taken again in this update.
+        idle : ndarray of bool, optional
+            Rows kept open at zero force (candidates of the unilateral solve): those whose
+            node has moved half an element off its master, or out of reach, are dropped
+            instead of counting as contacts that left their facets.
 
         Returns
         -------
@@ -354,9 +390,12 @@ class _Frame:
         dropped = rows.select(released) if released is not None else ContactRows()
         if released is not None:
             rows = rows.select(~released)
+            idle = idle[~released] if idle is not None else None
         changed = 0
         depth = 0.0
         t = time.perf_counter()
+        if idle is not None and idle.any():
+            rows = rows.select(~self._left(rows, idle, u))
         for i, pair in enumerate(self.pairs):
             if i in self.mortar:
                 rows, n, d = self._mortar_rows(i, rows, dropped, u, touching)
@@ -418,6 +457,22 @@ class _Frame:
                 changed += int(hit.sum())
         self.timings["geometry"] += time.perf_counter() - t
         return rows, changed, depth
+
+    def _left(
+        self, rows: ContactRows, idle: NDArray[np.bool_], u: dict[str, NDArray]
+    ) -> NDArray[np.bool_]:
+        """Idle rows whose node has moved half an element off its master, or out of reach."""
+        out = np.zeros(len(rows), dtype=bool)
+        for i, pair in enumerate(self.pairs):
+            mine = idle & (rows.pair == i)
+            if i in self.mortar or not mine.any():
+                continue
+            p = self.measure_pair(i, u, self.margin)
+            near = p.nodes[p.gap <= 0.5 * self.local[pair.slave.name][p.nodes]]
+            # a node with a closed row too keeps its idle rows (a corner's other facet)
+            held = rows.node[(rows.pair == i) & ~idle]
+            out |= mine & ~np.isin(rows.node, near) & ~np.isin(rows.node, held)
+        return out
 
     def _mortar_rows(
         self,
@@ -666,57 +721,85 @@ def _contact_space(frame: _Frame) -> FrameResult:
     stop, converged = "iteration limit", False
     prev = np.zeros(sum(b.mesh.n_dofs for b in frame.bodies))
     solved, lam, states = rows, np.zeros(0), {}
-    release = st.force_tolerance
+    start: NDArray[np.float64] | None = None
     for it in range(1, st.max_iterations + 1):
         key = _key(rows)
         if key in seen:
-            if release >= CYCLE_RELEASE:
-                stop = "cycling"
-                break
-            # a contact set met before: contacts that pull by round-off are released and
-            # taken again in turn; from now on only those that clearly pull are released
-            release = CYCLE_RELEASE
-            seen.clear()
-            log.debug("contact space: a contact set repeats; releasing above %g only", release)
+            stop = "cycling"
+            break
         seen.add(key)
         t = time.perf_counter()
         e = frame.matrices(rows)
-        lam, states = space.solve(e, rows.g0)
+        tol = LCP_TOLERANCE * frame.row_tol(rows)
+        res, states = space.solve_unilateral(e, rows.g0, tol, start)
+        lam = res.lam
         frame.timings["contact solve"] += time.perf_counter() - t
         solved = rows
+        closed = lam > 0
+        was = start > 0 if start is not None else np.zeros(len(rows), dtype=bool)
+        opened = int((was & ~closed).sum())
         u = {name: s.u.reshape(-1, 3) for name, s in states.items()}
         flat = np.concatenate([states[b.name].u for b in frame.bodies])
         change = float(np.abs(flat - prev).max())
         prev = flat
-        scale = frame.force_scale(lam)
-        pulling = lam < -release * scale
-        grown, added, depth = frame.new_rows(rows, u, False, pulling)
+        frame.force_scale(lam)
+        grown, added, depth = frame.new_rows(rows, u, False, idle=~closed)
         if frame.broken:
             frame.record(history, _record(it, rows, 0, 0, change, depth, e, lam, frame, 1.0, 0.0))
             stop = frame.slipping(states, frame.broken)
             break
         supports = frame.supports(states)
-        rec = _record(it, rows, added, int(pulling.sum()), change, depth, e, lam, frame, 1.0)
+        rec = _record(it, rows, added, opened, change, depth, e, lam, frame, 1.0)
         frame.record(history, _with_support(rec, supports))
         log.debug(
-            "contact space: iteration %d, %d contacts, +%d -%d",
+            "contact space: iteration %d, %d rows (%d closed, %d opened), +%d, %d LCP steps",
             it,
             len(rows),
+            int(closed.sum()),
+            opened,
             added,
-            int(pulling.sum()),
+            res.steps,
         )
-        if not added and not pulling.any():
+        if not res.solved:
+            stop = f"the contact forces did not settle in {res.steps} steps"
+            break
+        if not added:
             converged, stop = True, "converged"
             break
+        start = _carried(rows, lam, grown)
         rows = grown
+    keep = lam > 0
     return frame.result(
         converged=converged,
         stop=stop,
         history=history,
-        rows=solved,
-        lam=lam,
+        rows=solved.select(keep) if len(solved) == lam.size else solved,
+        lam=lam[keep],
         states=states,
     )
+
+
+def _carried(
+    rows: ContactRows, lam: NDArray[np.float64], grown: ContactRows
+) -> NDArray[np.float64]:
+    """The forces of ``rows`` carried over to ``grown``, by contact.
+
+    A renewed row keeps its node's (largest) force; a new one starts at zero.
+    """
+    out = np.zeros(len(grown))
+    if not len(rows) or not len(grown):
+        return out
+    n = int(max(rows.node.max(), grown.node.max())) + 1
+    code = rows.pair * n + rows.node
+    order = np.lexsort((-lam, code))  # the largest force of a node's rows first
+    uniq, first = np.unique(code[order], return_index=True)
+    best = lam[order][first]
+    new = grown.pair * n + grown.node
+    pos = np.searchsorted(uniq, new)
+    pos = np.minimum(pos, uniq.size - 1)
+    hit = uniq[pos] == new
+    out[hit] = best[pos[hit]]
+    return out
 
 
 def _seed(frame: _Frame, dirichlet: str) -> FrameResult:
