@@ -27,6 +27,7 @@ mapping keeps every tetrahedron fair, nothing moves (the rest pose is exact).
 
 from __future__ import annotations
 
+import logging
 import weakref
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -67,6 +68,8 @@ RELAX_STOP = 0.2
 #: fraction of it and leave as many tetrahedra inverted (stalled: typically a tetrahedron
 #: no position of its free nodes mends).
 RELAX_STALL = 1e-4
+_LOG = logging.getLogger(__name__)
+
 #: Rounds of restarts from a bone's rigid motion for the tetrahedra the passes leave
 #: inverted (:meth:`FleshRelaxer.relax`).
 RELAX_RESTARTS = 3
@@ -381,6 +384,21 @@ class FleshRelaxer:
     def relax(self, x: ArrayLike) -> tuple[NDArray[np.float64], int]:
         """Move the free nodes around the degraded tetrahedra of the posed points ``x``.
 
+        See :meth:`relax_quality`, which also returns the qualities of the result.
+
+        Returns
+        -------
+        points : ndarray, shape (N, 3)
+            ``x`` itself (not copied) when no tetrahedron is degraded.
+        moved : int
+            Free nodes moved.
+        """
+        points, moved, _ = self.relax_quality(x)
+        return points, moved
+
+    def relax_quality(self, x: ArrayLike) -> tuple[NDArray[np.float64], int, NDArray[np.float64]]:
+        """Move the free nodes around the degraded tetrahedra of the posed points ``x``.
+
         Passes of Newton's method over the degraded tetrahedra and ``rings`` rings around
         them (one ring more a pass, up to ``rounds``); then, with ``bone_id``, restarts
         of the clusters left inverted from a bone's rigid motion (:meth:`_restart`);
@@ -395,6 +413,9 @@ class FleshRelaxer:
             ``x`` itself (not copied) when no tetrahedron is degraded.
         moved : int
             Free nodes moved.
+        quality : ndarray, shape (M,)
+            :func:`tet_quality` of every tetrahedron at ``points`` (its sign is the
+            volume's: a caller needs no other pass over the mesh to find inverted ones).
         """
         x = np.asarray(x, dtype=np.float64)
         q = tet_quality(x, self.tets)
@@ -408,7 +429,7 @@ class FleshRelaxer:
             "polished": 0,
         }
         if len(bad) == 0:
-            return x, 0
+            return x, 0, q
         x = x.copy()
         moved = np.zeros(len(x), dtype=bool)
         inverted = int((q[bad] <= 0.0).sum())
@@ -435,7 +456,7 @@ class FleshRelaxer:
         if self.bone_id is not None:
             self._restart(x, moved, q)
         self._polish(x, moved, q)
-        return x, int(moved.sum())
+        return x, int(moved.sum()), q
 
     def _polish(
         self, x: NDArray[np.float64], moved: NDArray[np.bool_], q: NDArray[np.float64]
@@ -465,6 +486,7 @@ class FleshRelaxer:
         if (q1 <= 0.0).sum() > (q0 <= 0.0).sum() or q1[q1 > 0.0].min() < q0[q0 > 0.0].min():
             x[free] = before
             return
+        q[cells] = q1
         moved[free] = True
 
     def _rigid(
@@ -767,6 +789,16 @@ class FleshRelaxer:
             n_inv = int((q <= 0.0).sum())
             if (n_inv, -q.min()) < best:
                 best, x_best = (n_inv, -q.min()), x[free].copy()
+            _LOG.debug(
+                "newton: %d free, step %.3g, energy %.6g, %d inverted, %d below the "
+                "floor, min quality %.4f",
+                len(free),
+                t,
+                e1,
+                n_inv,
+                int((q <= floor).sum()),
+                q.min(),
+            )
             if (q > floor).all():
                 break
             # converged: nothing more to gain (a tetrahedron held down by the bones)
@@ -899,10 +931,12 @@ class HandPoser:
         points = rest + self.flesh_map.displacement(full)
         moved = 0
         if self.relaxer is not None:
-            points, moved = self.relaxer.relax(points)
+            points, moved, q = self.relaxer.relax_quality(points)
+        else:
+            q = tet_quality(points, self._tets)
         disp = points - rest
         tf = sk.forward_kinematics(full)
-        inverted = np.flatnonzero(tet_volumes(points, self._tets) <= 0.0)
+        inverted = np.flatnonzero(q <= 0.0)
         if check and len(inverted):
             raise self.inversion_error(full, inverted)
         return Pose(full, points, disp, tf, self._tets, self._regions, inverted, moved)
