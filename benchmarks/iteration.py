@@ -743,8 +743,9 @@ def _write_report(
             "factorisation (n_back_solves), partial solves: those computed on the marked "
             "DOFs only (n_partial_solves, where the solver has them). The seed loop's "
             "Neumann side adds one full solve of the other body per iteration, not "
-            "counted there. vs contact space: the normal force against contact space's "
-            "on the same frame (blank where the seed loop diverged). Contact solve: the "
+            "counted there. vs contact space: the resultant contact force on the hand "
+            "(block) along z against contact space's on the same frame (blank where the "
+            "seed loop diverged). Contact solve: the "
             "frame's wall time less the bodies' "
             "factorisation (done in the frame when the bodies factor lazily; "
             "`factor_s` in the CSV).",

@@ -633,10 +633,11 @@ def _record(
     frame: _Frame,
     omega: float,
     support: float = 0.0,
+    closed: int | None = None,
 ) -> IterationRecord:
     return IterationRecord(
         iteration=it,
-        n_contacts=len(rows),
+        n_contacts=len(rows) if closed is None else closed,
         added=added,
         released=released,
         max_change=change,
@@ -736,6 +737,7 @@ def _contact_space(frame: _Frame) -> FrameResult:
         frame.timings["contact solve"] += time.perf_counter() - t
         solved = rows
         closed = lam > 0
+        n_closed = int(closed.sum())
         was = start > 0 if start is not None else np.zeros(len(rows), dtype=bool)
         opened = int((was & ~closed).sum())
         u = {name: s.u.reshape(-1, 3) for name, s in states.items()}
@@ -745,11 +747,12 @@ def _contact_space(frame: _Frame) -> FrameResult:
         frame.force_scale(lam)
         grown, added, depth = frame.new_rows(rows, u, False, idle=~closed)
         if frame.broken:
-            frame.record(history, _record(it, rows, 0, 0, change, depth, e, lam, frame, 1.0, 0.0))
+            rec = _record(it, rows, 0, 0, change, depth, e, lam, frame, 1.0, 0.0, n_closed)
+            frame.record(history, rec)
             stop = frame.slipping(states, frame.broken)
             break
         supports = frame.supports(states)
-        rec = _record(it, rows, added, opened, change, depth, e, lam, frame, 1.0)
+        rec = _record(it, rows, added, opened, change, depth, e, lam, frame, 1.0, 0.0, n_closed)
         frame.record(history, _with_support(rec, supports))
         log.debug(
             "contact space: iteration %d, %d rows (%d closed, %d opened), +%d, %d LCP steps",

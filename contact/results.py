@@ -19,10 +19,12 @@ class IterationRecord:
     iteration : int
         1-based.
     n_contacts : int
-        Constraints active in this iteration's solve.
+        Constraints active in this iteration's solve (contact space: the rows it
+        closed, of its candidates).
     added, released : int
         Contacts added (penetrating, or renewed after sliding off their facet) and
-        released (pulling) after it.
+        released (pulling) after it; contact space: rows added after it, and rows its
+        unilateral solve opened that the previous one had closed.
     max_change : float
         Largest change of a nodal displacement since the previous iteration (m).
     max_penetration : float

@@ -59,11 +59,14 @@ def solve(ratio, press, **settings):
     return bodies, solve_frame(bodies, pairs, planes, ContactSettings(**settings))
 
 
-@pytest.mark.parametrize("ratio", [0.1, 10.0, 100.0])
+@pytest.mark.parametrize("ratio", [0.01, 0.1, 10.0, 100.0])
 def test_contact_space_holds_the_ball_against_the_palm(ratio):
     (ball, hand), res = solve(ratio, 0.005)
     assert res.converged, res.stop_reason
-    assert res.iterations <= 10
+    # the unilateral solve opens and closes rows itself: a few updates bring geometry
+    # (were 7 at ratio 0.01 when the updates released pulling rows)
+    assert res.iterations <= 5
+    assert res.penetration_ratio <= 1e-3
     on_hand = res.total_contact_force("hand")
     assert on_hand[2] > 0  # the ball pushes the palm up (the palm faces -z)
     cup = sum(res.obstacle_forces.values())
