@@ -120,8 +120,10 @@ def tet_quality(points: ArrayLike, tets: ArrayLike) -> NDArray[np.float64]:
 #: projected on its positive eigenvalues; a fairer one its convex part.
 _EXACT_J = 0.25
 #: The most unknowns (three a free node, and the least ``J``) of the dense max-min
-#: untangling of a restart's fallback (:meth:`FleshRelaxer._maxmin`).
-_MAXMIN_VARIABLES = 1500
+#: untangling of a restart's fallback (:meth:`FleshRelaxer._maxmin`): its quadratic
+#: subproblems are dense, their cost grows as the cube (measured: 136 unknowns and 464
+#: tetrahedra, 0.1 to 2 s; a wider tangle, such as the wrist's, is left to the passes).
+_MAXMIN_VARIABLES = 600
 #: Levi-Civita symbol: the Hessian of ``det F`` is ``eps_ikm eps_jln F_mn``.
 _LEVI = np.zeros((3, 3, 3))
 _LEVI[0, 1, 2] = _LEVI[1, 2, 0] = _LEVI[2, 0, 1] = 1.0
@@ -211,8 +213,9 @@ class FleshRelaxer:
     (``rounds``), as long as the wider patch mends more; a pass that leaves more
     inverted than before is undone. Each connected part of a patch is minimised on its
     own. With ``bone_id``, a tetrahedron still inverted after the passes (a fold Newton's
-    method cannot leave) restarts its neighbourhood from a nearby bone's rigid motion
-    (:meth:`relax`); last, the positive tetrahedra left below the stop floor are
+    method cannot leave) restarts its neighbourhood from a nearby bone's rigid motion,
+    untangled by a penalty on the volumes or, failing that, by maximising the least
+    volume (:meth:`relax_quality`); last, the positive tetrahedra left below the stop floor are
     relaxed once more on their own. All of it is vectorised over tetrahedra: a deep
     pose of the coarse hand takes a few Newton steps.
 
@@ -529,7 +532,9 @@ class FleshRelaxer:
         (:meth:`_untangle`), then relaxed; a restart is kept
         when fewer tetrahedra of that patch are inverted, undone otherwise (Newton's
         path from a restart is sensitive to its start: the variants are tried in turn,
-        about a tenth of a second each). Up to :data:`RELAX_RESTARTS` rounds. ``q``: the
+        about a tenth of a second each). A cluster none of them mends falls back on
+        maximising the least ``J`` of a smaller patch (:meth:`_feasible_restart`). Up to
+        :data:`RELAX_RESTARTS` rounds. ``q``: the
         qualities at ``x``, kept up to date.
         """
         from scipy.sparse.csgraph import connected_components
