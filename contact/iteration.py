@@ -55,7 +55,6 @@ from .zone import master_zone, slave_zone
 
 __all__ = [
     "ALGORITHMS",
-    "CYCLE_RELEASE",
     "LCP_TOLERANCE",
     "RELAXATIONS",
     "ContactSettings",
@@ -68,9 +67,6 @@ log = logging.getLogger(__name__)
 ALGORITHMS = ("contact-space", "seed")
 #: Relaxations of the seed loop.
 RELAXATIONS = ("none", "fixed", "aitken")
-#: Once a contact set repeats, contacts are released only when they pull by more than this
-#: fraction of the largest contact force (a second repetition stops the frame: "cycling").
-CYCLE_RELEASE = 1e-4
 #: A node in contact found inside another facet of its master, whose normal differs from
 #: its rows' by more than arccos of this (about 0.8 degree), is in a concave corner or
 #: crease: it keeps its row and gets one for that facet too, up to ``CORNER_ROWS`` rows in
@@ -106,8 +102,9 @@ class ContactSettings:
         its local element size (square root of its tributary area); at the start, nodes
         that touch within it are taken in contact (> 0).
     force_tolerance : float
-        A contact is released when it pulls by more than this fraction of the largest
-        contact force (>= 0).
+        Seed loop: a contact is released when it pulls by more than this fraction of
+        the largest contact force (>= 0). Contact space opens every row that would pull
+        (its unilateral solve: forces below 1e-10 of the scale of its gaps are round-off).
     relaxation : {"none", "fixed", "aitken"}
         Relaxation of the seed loop's step 5.
     relaxation_factor : float
@@ -744,7 +741,6 @@ def _contact_space(frame: _Frame) -> FrameResult:
         flat = np.concatenate([states[b.name].u for b in frame.bodies])
         change = float(np.abs(flat - prev).max())
         prev = flat
-        frame.force_scale(lam)
         grown, added, depth = frame.new_rows(rows, u, False, idle=~closed)
         if frame.broken:
             rec = _record(it, rows, 0, 0, change, depth, e, lam, frame, 1.0, 0.0, n_closed)
@@ -758,7 +754,7 @@ def _contact_space(frame: _Frame) -> FrameResult:
             "contact space: iteration %d, %d rows (%d closed, %d opened), +%d, %d LCP steps",
             it,
             len(rows),
-            int(closed.sum()),
+            n_closed,
             opened,
             added,
             res.steps,
