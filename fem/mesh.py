@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import hashlib
+from collections import OrderedDict
 from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import cached_property
@@ -17,6 +19,9 @@ __all__ = ["BoundaryFaces", "Mesh"]
 
 #: A Jacobian determinant below this fraction of the element's size cubed is degenerate.
 DEGENERATE_TOL = 1e-10
+#: Connectivities whose boundary faces are kept (:attr:`Mesh.boundary`).
+_BOUNDARY_CACHE = 8
+_BOUNDARIES: OrderedDict[tuple, BoundaryFaces] = OrderedDict()
 
 
 @dataclass(frozen=True)
@@ -231,7 +236,30 @@ class Mesh:
 
     @cached_property
     def boundary(self) -> BoundaryFaces:
-        """Faces that belong to exactly one cell, outward oriented, with their owners."""
+        """Faces that belong to exactly one cell, outward oriented, with their owners.
+
+        They depend on the connectivity alone: the last few connectivities' faces are
+        kept (:data:`_BOUNDARIES`), so that a mesh moved to a new place (a posed hand,
+        every frame) does not search them again.
+        """
+        key = (
+            self.n_points,
+            *(
+                (kind, conn.shape, hashlib.blake2b(conn.tobytes(), digest_size=16).digest())
+                for kind, conn in self.cells.items()
+            ),
+        )
+        hit = _BOUNDARIES.get(key)
+        if hit is not None:
+            _BOUNDARIES.move_to_end(key)
+            return hit
+        out = self._find_boundary()
+        _BOUNDARIES[key] = out
+        while len(_BOUNDARIES) > _BOUNDARY_CACHE:
+            _BOUNDARIES.popitem(last=False)
+        return out
+
+    def _find_boundary(self) -> BoundaryFaces:
         faces: dict[str, list[NDArray[np.int64]]] = {"triangle": [], "quad": []}
         owners: dict[str, list[NDArray[np.int64]]] = {"triangle": [], "quad": []}
         for kind, conn in self.cells.items():
@@ -257,6 +285,8 @@ class Mesh:
             once = counts == 1
             out_f[key] = f[once]
             out_o[key] = o[once]
+            out_f[key].setflags(write=False)  # shared by every mesh of this connectivity
+            out_o[key].setflags(write=False)
         return BoundaryFaces(out_f, out_o)
 
     def face_centroids(self, faces: Mapping[str, NDArray[np.int64]]) -> dict[str, NDArray]:
@@ -274,9 +304,21 @@ def _repeated_nodes(conn: NDArray[np.int64]) -> NDArray[np.int64]:
 
 
 def _row_multiplicity(rows: NDArray[np.int64]) -> NDArray[np.int64]:
-    """How many times each row occurs in ``rows`` (vectorised, via lexsort)."""
+    """How many times each row occurs in ``rows``.
+
+    Vectorised: the rows packed in one integer each where their entries fit, else sorted
+    by lexsort.
+    """
     if len(rows) == 0:
         return np.zeros(0, dtype=np.int64)
+    k = rows.shape[1]
+    top = int(rows.max()) + 1
+    if rows.min() >= 0 and top**k < 2**63:
+        code = np.zeros(len(rows), dtype=np.int64)
+        for j in range(k):
+            code = code * top + rows[:, j]
+        _, inverse, counts = np.unique(code, return_inverse=True, return_counts=True)
+        return counts[inverse]
     order = np.lexsort(rows.T[::-1])
     srt = rows[order]
     new = np.ones(len(rows), dtype=bool)

@@ -165,3 +165,17 @@ def test_hex_to_tet_conforms():
     assert tets.volume == pytest.approx(shell.volume, rel=1e-12)
     # conforming: the boundary of the tet mesh is exactly the shell's surface, as triangles
     assert tets.boundary.n_faces == 4 * shell.boundary.n_faces
+
+
+def test_boundary_is_kept_for_a_connectivity_moved_elsewhere():
+    m = fem.box_mesh((1.0, 1.0, 1.0), (3, 2, 2), element="tetra")
+    moved = fem.Mesh(m.points * 2.0 + 1.0, m.cells)
+    assert moved.boundary is m.boundary  # the faces depend on the connectivity alone
+    with pytest.raises(ValueError):
+        moved.boundary.faces["triangle"][0, 0] = 0  # shared: read-only
+    # another connectivity (one tet's nodes numbered from another corner) is not
+    other = {"tetra": m.cells["tetra"].copy()}
+    other["tetra"][0] = other["tetra"][0, [1, 2, 0, 3]]
+    renumbered = fem.Mesh(m.points, other)
+    assert renumbered.boundary is not m.boundary
+    assert renumbered.boundary.n_faces == m.boundary.n_faces
