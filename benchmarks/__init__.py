@@ -20,6 +20,7 @@ BENCHMARKS = (
     "hertz",
     "hertz_bodies",
     "iteration",
+    "lcp",
     "frame",
     "posing",
     "sfepy_hertz",

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -34,8 +35,10 @@ __all__ = [
     "StaticSolution",
     "StaticSolver",
     "check_balance",
+    "held_modes",
     "rigid_body_modes",
     "solve_saddle",
+    "solve_saddle_with",
 ]
 
 log = logging.getLogger(__name__)
@@ -632,38 +635,60 @@ def solve_saddle(
         If the loads are out of balance in a mode the constraints do not hold.
     """
     m, r = g.shape
-    a = np.zeros(r)
-    g1, c1, v1 = np.zeros((m, 0)), np.zeros(0), np.zeros((r, 0))
-    if r:
-        sv, vt = (np.linalg.svd(g, full_matrices=False)[1:]) if m else (np.zeros(0), None)
-        held = sv > RANK_TOL * sv.max() if sv.size and sv.max() > 0 else np.zeros(0, bool)
-        if held.any():
-            v1 = vt[held].T
-        v0 = np.linalg.svd(v1.T)[2][v1.shape[1] :].T if v1.shape[1] else np.eye(r)
-        scale = max(float(np.abs(c).max(initial=0.0)), load_scale, 1e-300)
-        if v0.shape[1] and np.abs(v0.T @ c).max() > 1e-8 * scale:
-            raise LoadError(
-                "the constraints do not hold the free body in every direction and the "
-                "loads are not in balance in the free directions"
-            )
-        g1, c1 = g @ v1, v1.T @ c
+    v1 = held_modes(g, c, load_scale)
     if m == 0:
-        return np.zeros(0), a
+        return np.zeros(0), np.zeros(r)
     try:
         cw = sla.cho_factor(w)
     except sla.LinAlgError:
         # dependent rows (a node against two facets meeting at it): least squares
+        g1, c1 = g @ v1, v1.T @ c
         k = g1.shape[1]
         big = np.block([[w, g1], [g1.T, np.zeros((k, k))]])
         sol, *_ = np.linalg.lstsq(big, np.concatenate([rhs, c1]), rcond=1e-12)
-        lam, b = sol[:m], sol[m:]
-    else:
-        lam = sla.cho_solve(cw, rhs)
-        b = np.zeros(0)
-        if g1.shape[1]:
-            wg = sla.cho_solve(cw, g1)
-            b = np.linalg.solve(g1.T @ wg, g1.T @ lam - c1)
-            lam = lam - wg @ b
-    if r:
+        return sol[:m], v1 @ sol[m:]
+    return solve_saddle_with(lambda v: sla.cho_solve(cw, v), g, rhs, c, v1)
+
+
+def held_modes(g: NDArray, c: NDArray, load_scale: float = 0.0) -> NDArray:
+    """The rigid modes the constraints hold: an orthonormal basis ``(r, k)`` of them.
+
+    See :func:`solve_saddle`; checks the loads ``c`` are in balance in the others.
+
+    Raises
+    ------
+    LoadError
+        If the loads are out of balance in a mode the constraints do not hold.
+    """
+    m, r = g.shape
+    if not r:
+        return np.zeros((0, 0))
+    sv, vt = (np.linalg.svd(g, full_matrices=False)[1:]) if m else (np.zeros(0), None)
+    held = sv > RANK_TOL * sv.max() if sv.size and sv.max() > 0 else np.zeros(0, bool)
+    v1 = vt[held].T if held.any() else np.zeros((r, 0))
+    v0 = np.linalg.svd(v1.T)[2][v1.shape[1] :].T if v1.shape[1] else np.eye(r)
+    scale = max(float(np.abs(c).max(initial=0.0)), load_scale, 1e-300)
+    if v0.shape[1] and np.abs(v0.T @ c).max() > 1e-8 * scale:
+        raise LoadError(
+            "the constraints do not hold the free body in every direction and the "
+            "loads are not in balance in the free directions"
+        )
+    return v1
+
+
+def solve_saddle_with(
+    w_inv: Callable[[NDArray], NDArray], g: NDArray, rhs: NDArray, c: NDArray, v1: NDArray
+) -> tuple[NDArray, NDArray]:
+    """:func:`solve_saddle` with ``W^-1`` applied by ``w_inv`` and the held modes ``v1``.
+
+    ``w_inv`` takes an ``(m,)`` or ``(m, k)`` array; ``v1`` is :func:`held_modes`'s.
+    """
+    lam = w_inv(rhs)
+    a = np.zeros(g.shape[1])
+    if v1.shape[1]:
+        g1, c1 = g @ v1, v1.T @ c
+        wg = w_inv(g1)
+        b = np.linalg.solve(g1.T @ wg, g1.T @ lam - c1)
+        lam = lam - wg @ b
         a = v1 @ b
     return lam, a

@@ -102,3 +102,26 @@ def test_a_loaded_free_body_that_nothing_holds_is_an_error():
     with pytest.raises(fem.LoadError):
         # pushed away from both rows (c = -load along the mode, here pulling)
         solve_lcp(w, g, rhs, np.array([-1.0]), tol=1e-9)
+
+
+def test_a_rigid_sphere_on_a_half_space_closes_hertz_patch():
+    # Boussinesq's compliance between the nodes of a grid, pressed by a rigid sphere: the
+    # LCP's force and patch are Hertz's to the grid's resolution, whichever rows start
+    # closed (all of them: the steps open most again, bordering one factorisation)
+    import math
+
+    from benchmarks.lcp import NU, PRESS, RADIUS, E, half_space
+
+    w, gap, x, h = half_space(20)
+    cold = solve_lcp(w, np.zeros((gap.size, 0)), -gap, np.zeros(0), tol=1e-9 * PRESS)
+    first = np.where(gap < -0.5 * PRESS, 1.0, 0.0)
+    warm = solve_lcp(w, np.zeros((gap.size, 0)), -gap, np.zeros(0), tol=1e-9 * PRESS, start=first)
+    assert cold.solved and warm.solved and cold.steps > 3
+    np.testing.assert_allclose(cold.lam, warm.lam, rtol=1e-9, atol=1e-12 * warm.lam.max())
+    force = 4.0 / 3.0 * E / (1 - NU**2) * math.sqrt(RADIUS) * PRESS**1.5
+    assert warm.lam.sum() == pytest.approx(force, rel=0.02)
+    closed = warm.lam > 0
+    a = math.sqrt(RADIUS * PRESS)
+    r = np.linalg.norm(x, axis=1)
+    assert r[closed].max() < a + h and r[~closed].min() > a - h  # the patch's edge
+    assert warm.gap[~closed].min() >= 0
