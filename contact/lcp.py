@@ -28,7 +28,7 @@ import numpy as np
 import scipy.linalg as sla
 from numpy.typing import NDArray
 
-from fem.statics import held_modes, solve_saddle, solve_saddle_with
+from fem.statics import cholesky_or_none, held_modes, solve_saddle, solve_saddle_with
 
 __all__ = ["REFACTOR", "REPEATS", "LcpResult", "solve_lcp"]
 
@@ -131,11 +131,19 @@ def solve_lcp(
         load_scale,
     )
     closed_solve = _ClosedSolver(w, g, rhs, c, load_scale)
+    batch: NDArray[np.int64] | None = None  # the rows the last step closed at once
     while steps < limit:
         idx = np.flatnonzero(closed)
         z = np.zeros(m)
         z[idx], a = closed_solve(idx)
         steps += 1
+        if not closed_solve.exact and batch is not None:
+            # rows closed together that repeat one another: taken one at a time instead
+            closed[batch] = False
+            taken[batch] -= 1
+            one_at_a_time, batch = True, None
+            continue
+        batch = None
         neg = np.flatnonzero(closed & (z < -small))
         if neg.size:
             # the new forces pull on some rows: go from the last (feasible) forces towards
@@ -164,12 +172,62 @@ def solve_lcp(
         scaled = np.where(short, gap / np.maximum(tol_arr, 1e-300), np.inf)
         deepest = int(np.argmin(scaled))
         one_at_a_time |= bool(taken[deepest])
-        chosen = np.array([deepest]) if one_at_a_time else np.flatnonzero(short)
-        closed[chosen] = True
-        taken[chosen] += 1
+        if one_at_a_time:
+            swap = _swap(closed_solve, w, idx, deepest, lam, small)
+            if swap is not None:
+                # the row repeats closed ones: their force moves onto it until one of
+                # them reaches zero and opens
+                lam, out = swap
+                closed[out] = False
+            closed[deepest] = True
+            taken[deepest] += 1
+        else:
+            batch = np.flatnonzero(short)
+            closed[batch] = True
+            taken[batch] += 1
     gap = w @ lam + g @ a - rhs
     lam[lam <= small] = 0.0
     return LcpResult(lam, a, gap, steps, solved)
+
+
+def _swap(
+    solver: _ClosedSolver,
+    w: NDArray,
+    idx: NDArray[np.int64],
+    j: int,
+    lam: NDArray,
+    small: float,
+) -> tuple[NDArray, int] | None:
+    """A step along the null direction of closed rows ``idx`` that row ``j`` repeats.
+
+    When ``W_j`` is a combination ``W_C coef`` of the closed rows, closing ``j`` would make
+    the equality problem singular; moving force ``t`` onto ``j`` and ``t coef`` off the
+    closed rows changes no gap and lowers the energy while ``j`` penetrates. The step
+    stops where the first closed row reaches zero force: that row opens. Returns the new
+    forces and the row that opens, or None if ``j`` does not repeat them.
+    """
+    if not idx.size:
+        return None
+    op = solver.operator(idx)
+    if op is None:
+        return None
+    coef = op(w[idx, j])
+    own = float(w[j, j] - w[j, idx] @ coef)
+    if own > 1e-10 * float(w[j, j]):
+        return None
+    pos = coef > 1e-12 * float(np.abs(coef).max())
+    if not pos.any():
+        return None
+    ratio = lam[idx][pos] / coef[pos]
+    k = int(np.argmin(ratio))
+    t = float(ratio[k])
+    lam = lam.copy()
+    lam[idx] -= t * coef
+    lam[j] = t
+    out = int(idx[np.flatnonzero(pos)[k]])
+    lam[out] = 0.0
+    lam[np.abs(lam) <= small] = 0.0
+    return lam, out
 
 
 class _ClosedSolver:
@@ -192,31 +250,48 @@ class _ClosedSolver:
         self.base = np.zeros(0, dtype=np.int64)
         self.factor: tuple | None = None
         self.cols: dict[int, NDArray] = {}  # W_BB^-1 of each border column, by row
+        self.exact = True
 
     def _refactor(self, idx: NDArray[np.int64]) -> bool:
-        try:
-            self.factor = sla.cho_factor(self.w[np.ix_(idx, idx)])
-        except sla.LinAlgError:
-            self.factor = None
+        self.factor = cholesky_or_none(self.w[np.ix_(idx, idx)])
+        if self.factor is None:
             return False
         self.base = idx
         self.cols = {}
         return True
 
-    def __call__(self, idx: NDArray[np.int64]) -> tuple[NDArray, NDArray]:
-        """Forces and rigid-mode amplitudes with the rows ``idx`` closed."""
-        g, c = self.g[idx], self.c
-        v1 = held_modes(g, c, self.load_scale)
-        if not idx.size:
-            return np.zeros(0), np.zeros(g.shape[1])
+    def operator(self, idx: NDArray[np.int64]) -> Callable[[NDArray], NDArray] | None:
+        """``v -> W_CC^-1 v`` for the closed rows ``idx`` (sorted); None if dependent."""
         added = np.setdiff1d(idx, self.base, assume_unique=True)
         removed = np.setdiff1d(self.base, idx, assume_unique=True)
-        if self.factor is None or added.size + removed.size > max(16, REFACTOR * idx.size):
-            if not self._refactor(idx):
-                # dependent rows (a node held both ways): least squares
-                return solve_saddle(self.w[np.ix_(idx, idx)], g, self.rhs[idx], c, self.load_scale)
-            added = removed = np.zeros(0, dtype=np.int64)
-        return solve_saddle_with(self._inverse(idx, added, removed), g, self.rhs[idx], c, v1)
+        if self.factor is not None and added.size + removed.size <= max(16, REFACTOR * idx.size):
+            try:
+                return self._inverse(idx, added, removed)
+            except np.linalg.LinAlgError:
+                pass  # a row added that repeats the base's: factored anew below
+        if not self._refactor(idx):
+            return None
+        none = np.zeros(0, dtype=np.int64)
+        return self._inverse(idx, none, none)
+
+    def __call__(self, idx: NDArray[np.int64]) -> tuple[NDArray, NDArray]:
+        """Forces and rigid-mode amplitudes with the rows ``idx`` closed.
+
+        Sets :attr:`exact` False where the rows are dependent and were solved by least
+        squares.
+        """
+        g, c = self.g[idx], self.c
+        v1 = held_modes(g, c, self.load_scale)
+        self.exact = True
+        if not idx.size:
+            return np.zeros(0), np.zeros(g.shape[1])
+        rhs = self.rhs[idx]
+        op = self.operator(idx)
+        if op is None:
+            # dependent rows (a node held both ways): least squares
+            self.exact = False
+            return solve_saddle(self.w[np.ix_(idx, idx)], g, rhs, c, self.load_scale)
+        return solve_saddle_with(op, g, rhs, c, v1)
 
     def _columns(self, added: NDArray, removed: NDArray) -> NDArray:
         """``W_BB^-1`` of the border columns: added rows' ``W``, removed rows' unit vectors.
@@ -253,6 +328,9 @@ class _ClosedSolver:
         z = np.zeros((na + nd, na + nd))
         z[:na, :na] = w[np.ix_(added, added)]
         t = z - u.T @ y
+        own = np.diag(t)[:na]  # each added row's compliance left once the base holds
+        if (own <= 1e-10 * np.diag(z)[:na]).any():  # a row added that repeats the base's
+            raise np.linalg.LinAlgError("an added row depends on the base rows")
         in_base = np.searchsorted(idx, base[np.isin(base, idx)])
         pos_base = np.flatnonzero(np.isin(base, idx))
         pos_added = np.searchsorted(idx, added)

@@ -35,6 +35,7 @@ __all__ = [
     "StaticSolution",
     "StaticSolver",
     "check_balance",
+    "cholesky_or_none",
     "held_modes",
     "rigid_body_modes",
     "solve_saddle",
@@ -638,9 +639,8 @@ def solve_saddle(
     v1 = held_modes(g, c, load_scale)
     if m == 0:
         return np.zeros(0), np.zeros(r)
-    try:
-        cw = sla.cho_factor(w)
-    except sla.LinAlgError:
+    cw = cholesky_or_none(w)
+    if cw is None:
         # dependent rows (a node against two facets meeting at it): least squares
         g1, c1 = g @ v1, v1.T @ c
         k = g1.shape[1]
@@ -648,6 +648,23 @@ def solve_saddle(
         sol, *_ = np.linalg.lstsq(big, np.concatenate([rhs, c1]), rcond=1e-12)
         return sol[:m], v1 @ sol[m:]
     return solve_saddle_with(lambda v: sla.cho_solve(cw, v), g, rhs, c, v1)
+
+
+def cholesky_or_none(w: NDArray, rtol: float = 1e-12) -> tuple | None:
+    """``scipy.linalg.cho_factor`` of ``w``, or None where its rows are dependent.
+
+    Dependent rows (the same constraint twice) make ``w`` singular; round-off may still
+    let the factorisation through with a pivot of round-off size. A pivot whose square
+    is below ``rtol`` times the largest diagonal entry counts as zero.
+    """
+    try:
+        cw = sla.cho_factor(w)
+    except sla.LinAlgError:
+        return None
+    pivots = np.abs(np.diag(cw[0]))
+    if pivots.size and pivots.min() ** 2 < rtol * float(np.abs(np.diag(w)).max()):
+        return None
+    return cw
 
 
 def held_modes(g: NDArray, c: NDArray, load_scale: float = 0.0) -> NDArray:

@@ -125,3 +125,22 @@ def test_a_rigid_sphere_on_a_half_space_closes_hertz_patch():
     r = np.linalg.norm(x, axis=1)
     assert r[closed].max() < a + h and r[~closed].min() > a - h  # the patch's edge
     assert warm.gap[~closed].min() >= 0
+
+
+def test_a_row_that_repeats_a_closed_one_is_solved_anew():
+    # a row with the same compliance as a closed one, needing its gap closed further:
+    # both closed, the equality problem would be singular (least squares would split the
+    # force and leave one row inside); the force moves onto the new row and the laxer
+    # one opens
+    w1 = _spd(3, 9)
+    w = np.zeros((4, 4))
+    w[:3, :3] = w1
+    w[3], w[:, 3] = w[0], w[:, 0]
+    rhs = np.array([1.0, -0.2, 0.3, 1.1])
+    start = np.array([1.0, 0.0, 1.0, 0.0])  # row 0 closed at first, row 3 open
+    res = solve_lcp(w, np.zeros((4, 0)), rhs, np.zeros(0), tol=1e-9, start=start)
+    ref = solve_lcp(w1, np.zeros((3, 0)), rhs[[3, 1, 2]], np.zeros(0), tol=1e-9)
+    assert res.solved
+    assert res.lam[0] == 0 and res.lam[3] == pytest.approx(ref.lam[0], rel=1e-9)
+    np.testing.assert_allclose(res.lam[1:3], ref.lam[1:3], rtol=1e-9, atol=1e-12)
+    assert res.gap[0] == pytest.approx(0.1, rel=1e-9) and res.gap.min() >= -1e-9
