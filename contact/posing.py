@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import logging
 import weakref
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -571,23 +571,44 @@ class FleshRelaxer:
         for patch in (self.rings + 1, self.rings + 2):
             free = self._ring(core, patch)
             free = free[~self.fixed[free]]
-            cells = np.unique(self._n2t[free].indices)
-            n_before = int((tet_volumes(x, self.tets[cells]) <= 0.0).sum())
-            before = x[free].copy()
-            for reach in (1, 0, 2):
-                inner = self._ring(core, reach)
-                inner = inner[~self.fixed[inner]]
-                for b in candidates.tolist():
-                    rot, shift = self._rigid(x, b)
-                    x[inner] = self.rest[inner] @ rot.T + shift
-                    self.stats["restarts"] += 1
-                    self._untangle(x, free)
-                    self._minimise(x, free)
-                    if int((tet_volumes(x, self.tets[cells]) <= 0.0).sum()) < n_before:
-                        moved[free] = True
-                        return True
-                    x[free] = before
+            if self._restarts(x, moved, core, free, candidates, (1, 0, 2), self._untangle):
+                return True
         return self._feasible_restart(x, moved, cluster, core, candidates)
+
+    def _restarts(
+        self,
+        x: NDArray[np.float64],
+        moved: NDArray[np.bool_],
+        core: NDArray[np.int64],
+        free: NDArray[np.int64],
+        candidates: NDArray[np.int64],
+        reaches: tuple[int, ...],
+        untangle: Callable[[NDArray[np.float64], NDArray[np.int64]], object],
+    ) -> bool:
+        """Restart a fold from the candidate bones' rigid motions; keep the first that helps.
+
+        The nodes within each of ``reaches`` rings of ``core`` are carried by each
+        candidate bone, the ``free`` patch untangled (``untangle``) and relaxed; the
+        first that leaves fewer of the patch's tetrahedra inverted is kept (True),
+        otherwise the patch is put back.
+        """
+        cells = np.unique(self._n2t[free].indices)
+        n_before = int((tet_volumes(x, self.tets[cells]) <= 0.0).sum())
+        before = x[free].copy()
+        for reach in reaches:
+            inner = self._ring(core, reach)
+            inner = inner[~self.fixed[inner]]
+            for b in candidates.tolist():
+                rot, shift = self._rigid(x, b)
+                x[inner] = self.rest[inner] @ rot.T + shift
+                self.stats["restarts"] += 1
+                untangle(x, free)
+                self._minimise(x, free)
+                if int((tet_volumes(x, self.tets[cells]) <= 0.0).sum()) < n_before:
+                    moved[free] = True
+                    return True
+                x[free] = before
+        return False
 
     def _feasible_restart(
         self,
@@ -615,24 +636,12 @@ class FleshRelaxer:
         free = free[~self.fixed[free]]
         if len(free) == 0 or 3 * len(free) > _MAXMIN_VARIABLES:
             return False
-        cells = np.unique(self._n2t[free].indices)
-        n_before = int((tet_volumes(x, self.tets[cells]) <= 0.0).sum())
-        before = x[free].copy()
-        for reach in (0, 1, 2):
-            inner = self._ring(core, reach)
-            inner = inner[~self.fixed[inner]]
-            for b in candidates.tolist():
-                rot, shift = self._rigid(x, b)
-                x[inner] = self.rest[inner] @ rot.T + shift
-                self.stats["restarts"] += 1
-                self.stats["feasible"] += 1
-                self._maxmin(x, free)
-                self._minimise(x, free)
-                if int((tet_volumes(x, self.tets[cells]) <= 0.0).sum()) < n_before:
-                    moved[free] = True
-                    return True
-                x[free] = before
-        return False
+
+        def maxmin(x: NDArray[np.float64], free: NDArray[np.int64]) -> None:
+            self.stats["feasible"] += 1
+            self._maxmin(x, free)
+
+        return self._restarts(x, moved, core, free, candidates, (0, 1, 2), maxmin)
 
     def _maxmin(self, x: NDArray[np.float64], free: NDArray[np.int64]) -> None:
         """Move ``free`` to maximise the least ``J = V / V_rest`` around them (in place).
