@@ -11,9 +11,12 @@ which is the optimality condition of the convex quadratic programme
     min  1/2 lambda^T W lambda - rhs^T lambda   s.t.  lambda >= 0,  G^T lambda = c.
 
 It is solved by a primal active-set method in the manner of Lawson and Hanson's NNLS: each
-step solves the equality problem on the rows held (:func:`fem.statics.solve_saddle`); a
-row whose force would pull is stopped at zero by a step of the line between the last
-feasible forces and the new ones, and the row whose gap is most negative is taken next.
+step solves the equality problem on the rows held (:func:`fem.statics.solve_saddle_with`,
+bordering the last Cholesky factorisation of their ``W``); a row whose force would pull
+is stopped at zero by a step of the line between the last feasible forces and the new
+ones, and the row whose gap is most negative is taken next (all penetrating rows at once
+at first). A row whose ``W`` repeats closed rows' (a node held both ways) is not closed
+beside them: the force moves onto it along the null direction until one of them opens.
 The forces stay feasible and the energy falls at every step, so rows that hold one another
 (two-pass node-to-surface contact, where both meshes touch) cannot be released and taken
 in turn for ever, as an outer loop that releases every pulling row at once would.
