@@ -772,7 +772,7 @@ def _contact_space(frame: _Frame) -> FrameResult:
         converged=converged,
         stop=stop,
         history=history,
-        rows=solved.select(keep) if len(solved) == lam.size else solved,
+        rows=solved.select(keep),
         lam=lam[keep],
         states=states,
     )

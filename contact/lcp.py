@@ -254,6 +254,7 @@ class _ClosedSolver:
         self.factor: tuple | None = None
         self.cols: dict[int, NDArray] = {}  # W_BB^-1 of each border column, by row
         self.exact = True
+        self._last: tuple[NDArray[np.int64], Callable[[NDArray], NDArray] | None] | None = None
 
     def _refactor(self, idx: NDArray[np.int64]) -> bool:
         self.factor = cholesky_or_none(self.w[np.ix_(idx, idx)])
@@ -264,7 +265,18 @@ class _ClosedSolver:
         return True
 
     def operator(self, idx: NDArray[np.int64]) -> Callable[[NDArray], NDArray] | None:
-        """``v -> W_CC^-1 v`` for the closed rows ``idx`` (sorted); None if dependent."""
+        """``v -> W_CC^-1 v`` for the closed rows ``idx`` (sorted); None if dependent.
+
+        The last one is kept: a step's solve and its dependence test (:func:`_swap`) ask
+        for the same rows.
+        """
+        if self._last is not None and np.array_equal(self._last[0], idx):
+            return self._last[1]
+        op = self._operator(idx)
+        self._last = (idx.copy(), op)
+        return op
+
+    def _operator(self, idx: NDArray[np.int64]) -> Callable[[NDArray], NDArray] | None:
         added = np.setdiff1d(idx, self.base, assume_unique=True)
         removed = np.setdiff1d(self.base, idx, assume_unique=True)
         if self.factor is not None and added.size + removed.size <= max(16, REFACTOR * idx.size):
@@ -334,8 +346,9 @@ class _ClosedSolver:
         own = np.diag(t)[:na]  # each added row's compliance left once the base holds
         if (own <= 1e-10 * np.diag(z)[:na]).any():  # a row added that repeats the base's
             raise np.linalg.LinAlgError("an added row depends on the base rows")
-        in_base = np.searchsorted(idx, base[np.isin(base, idx)])
-        pos_base = np.flatnonzero(np.isin(base, idx))
+        kept = np.isin(base, idx)
+        in_base = np.searchsorted(idx, base[kept])
+        pos_base = np.flatnonzero(kept)
         pos_added = np.searchsorted(idx, added)
 
         def apply(v: NDArray) -> NDArray:

@@ -298,6 +298,10 @@ class FleshRelaxer:
         q = tet_quality(x, self.tets) if quality is None else quality
         return np.flatnonzero((q < RELAX_QUALITY) & (q < 0.5 * self.rest_quality))
 
+    def _cells(self, nodes: NDArray[np.int64]) -> NDArray[np.int64]:
+        """The tetrahedra around ``nodes``, sorted."""
+        return np.unique(self._n2t[nodes].indices)
+
     def _requality(
         self, q: NDArray[np.float64], x: NDArray[np.float64], nodes: NDArray[np.int64]
     ) -> None:
@@ -307,7 +311,7 @@ class FleshRelaxer:
         quality, so only the patch's tetrahedra are measured again (on the fine hand a
         whole-mesh quality costs several times a mild pose's Newton steps).
         """
-        cells = np.unique(self._n2t[nodes].indices)
+        cells = self._cells(nodes)
         q[cells] = tet_quality(x, self.tets[cells])
 
     def energy(
@@ -480,7 +484,7 @@ class FleshRelaxer:
         free = free[~self.fixed[free]]
         if len(free) == 0:
             return
-        cells = np.unique(self._n2t[free].indices)
+        cells = self._cells(free)
         q0 = q[cells]
         before = x[free].copy()
         self.stats["polished"] = len(low)
@@ -592,7 +596,7 @@ class FleshRelaxer:
         first that leaves fewer of the patch's tetrahedra inverted is kept (True),
         otherwise the patch is put back.
         """
-        cells = np.unique(self._n2t[free].indices)
+        cells = self._cells(free)
         n_before = int((tet_volumes(x, self.tets[cells]) <= 0.0).sum())
         before = x[free].copy()
         for reach in reaches:
@@ -653,7 +657,7 @@ class FleshRelaxer:
         """
         from scipy.optimize import minimize
 
-        cells = np.unique(self._n2t[free].indices)
+        cells = self._cells(free)
         tets, dmat = self.tets[cells], self._dmat[cells]
         dmt = np.transpose(dmat, (0, 2, 1))
         local = np.full(len(x), -1, dtype=np.int64)
@@ -711,7 +715,7 @@ class FleshRelaxer:
         """
         from scipy.optimize import minimize
 
-        cells = np.unique(self._n2t[free].indices)
+        cells = self._cells(free)
         tets, vol, dmat = self.tets[cells], self._vol[cells], self._dmat[cells]
         local = np.full(len(x), -1, dtype=np.int64)
         local[free] = np.arange(len(free))
@@ -754,7 +758,7 @@ class FleshRelaxer:
 
     def _newton(self, x: NDArray[np.float64], free: NDArray[np.int64]) -> None:
         """Newton's method on the tetrahedra around one connected part ``free``."""
-        cells = np.unique(self._n2t[free].indices)
+        cells = self._cells(free)
         tets = self.tets[cells]
         local = np.full(len(x), -1, dtype=np.int64)
         local[free] = np.arange(len(free))
