@@ -49,6 +49,9 @@ FINGERTIPS = {
     "little": "little_distal",
 }
 
+#: Boundary nodes tested at a time (farthest along the bone first) by :func:`fingertip_node`.
+_CHUNK = 256
+
 Distance = Callable[[NDArray[np.float64]], NDArray[np.float64]]
 
 
@@ -110,12 +113,20 @@ def fingertip_node(hand: Hand, finger: str) -> int:
     x = hand.flesh.points[nodes]
     a = np.stack([b.start for b in sk.bones.values()])
     ab = np.stack([b.end for b in sk.bones.values()]) - a
+    own = sk.bone_names.index(bone.name)
+    along = (x - bone.start) @ ((bone.end - bone.start) / bone.length)
+    order = np.argsort(-along, kind="stable")  # the argmax's tie-break: the first node
+    for chunk in np.array_split(order, max(1, len(order) // _CHUNK)):
+        mine = _nearest_bone(x[chunk], a, ab) == own
+        if mine.any():
+            return int(nodes[chunk[np.argmax(mine)]])
+    raise RigError(f"no boundary node of the flesh is nearest the bone {bone.name!r}")
+
+
+def _nearest_bone(x: NDArray, a: NDArray, ab: NDArray) -> NDArray[np.int64]:
+    """Index of the bone axis segment (start ``a``, vector ``ab``) nearest each point."""
     t = np.clip(np.einsum("nbk,bk->nb", x[:, None] - a, ab) / (ab * ab).sum(1), 0.0, 1.0)
-    nearest = np.argmin(np.linalg.norm(x[:, None] - (a + t[..., None] * ab), axis=2), axis=1)
-    mine = nearest == sk.bone_names.index(bone.name)
-    d = (bone.end - bone.start) / bone.length
-    along = np.where(mine, (x - bone.start) @ d, -np.inf)
-    return int(nodes[np.argmax(along)])
+    return np.argmin(np.linalg.norm(x[:, None] - (a + t[..., None] * ab), axis=2), axis=1)
 
 
 def expected_halvings(lever: float, interval: float, epsilon: float) -> int:

@@ -105,7 +105,19 @@ def _rotate(v: NDArray, axis: NDArray, angle: NDArray) -> NDArray:
     """Rotate vectors ``v`` about unit ``axis`` by ``angle`` (radians), row by row."""
     c, s = np.cos(angle)[:, None], np.sin(angle)[:, None]
     kv = (axis * v).sum(-1)[:, None]
-    return v * c + np.cross(axis, v) * s + axis * kv * (1.0 - c)
+    return v * c + _cross(axis, v) * s + axis * kv * (1.0 - c)
+
+
+def _cross(a: NDArray, b: NDArray) -> NDArray:
+    """Row-wise cross product of (n, 3) arrays (``np.cross`` without its axis set-up)."""
+    a0, a1, a2 = a[:, 0], a[:, 1], a[:, 2]
+    b0, b1, b2 = b[:, 0], b[:, 1], b[:, 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=1)
+
+
+def _close(a: NDArray, b: NDArray) -> bool:
+    """``np.allclose(a, b, atol=1e-9)`` of two small arrays, without its set-up."""
+    return bool((np.abs(a - b) <= 1e-9 + 1e-5 * np.abs(b)).all())
 
 
 def _unit(v: NDArray) -> NDArray:
@@ -158,7 +170,7 @@ class SkeletonTopology:
         child = np.full(len(names), -1, dtype=np.int64)
         for a in range(len(names)):
             kids = np.flatnonzero(parent == a)
-            if len(kids) == 1 and np.allclose(start[kids[0]], end[a], atol=1e-9):
+            if len(kids) == 1 and _close(start[kids[0]], end[a]):
                 child[a] = kids[0]
         chained = np.zeros(len(names), dtype=bool)
         chained[child[child >= 0]] = True
@@ -212,7 +224,14 @@ class JLDMap:
         ref_x, ref_id = (x, bid) if reference is None else reference
         ref_x = np.asarray(ref_x, dtype=np.float64)
         ref_id = np.asarray(ref_id, dtype=np.int64)
-        self._trees = {int(b): cKDTree(ref_x[ref_id == b]) for b in np.unique(ref_id[ref_id >= 0])}
+        order = np.argsort(ref_id, kind="stable")
+        cut = np.searchsorted(ref_id[order], np.arange(len(topo.names) + 1))
+        self._ref = {  # each bone's reference nodes; their k-d trees are built on first use
+            b: ref_x[order[cut[b] : cut[b + 1]]]
+            for b in range(len(topo.names))
+            if cut[b + 1] > cut[b]
+        }
+        self._trees: dict[int, cKDTree] = {}
         seg = self._assign(x, bid)
         self.segment = seg
         self._main = self._localise(x, seg)
@@ -239,6 +258,12 @@ class JLDMap:
         )
         child_bone = np.array([topo.joint.index(j) for j in self._joint_names])
         self._jchild = child_bone
+        # columns of each joint's flexion and pivot in the skeleton's angle vector, and
+        # each bone's joint in its transform stack (the root last: the identity)
+        col = {n: i for i, n in enumerate(sk.angle_names)}
+        self._flex_col = np.array([col[j] for j in self._joint_names])
+        self._piv_col = np.array([col.get(j + PIVOT_SUFFIX, -1) for j in self._joint_names])
+        self._bone_joint = np.array([self._jidx.get(j, nj) for j in topo.joint])
         self._jparent = topo.parent[child_bone]
         self._jtwo = topo.chained[child_bone]
         params = [spec.jld_params(j) for j in self._joint_names]
@@ -275,7 +300,6 @@ class JLDMap:
         self._hub_children = [int(c) for c in np.flatnonzero(np.isin(topo.parent, hubs))]
         self._b_normal = np.stack([b.frame[:, 2] for b in bones])  # dorsal
         self._b_finger = np.array([b.part != spec.base_group for b in bones]) & (self._bjoint >= 0)
-        del nj
 
     def _clamped_distance(self, x: NDArray, bones: NDArray | None = None) -> NDArray:
         """Distance of every point to every bone's axis segment (or to ``bones``)."""
@@ -312,6 +336,12 @@ class JLDMap:
             seg[off] = topo.parent[seg[off]]
         return seg
 
+    def _tree(self, bone: int) -> cKDTree | None:
+        """k-d tree of the reference nodes fixed to ``bone`` (None without any)."""
+        if bone not in self._trees and bone in self._ref:
+            self._trees[bone] = cKDTree(self._ref[bone])
+        return self._trees.get(bone)
+
     def _surface_distance(self, x: NDArray, bones: NDArray) -> NDArray:
         """Distance from each point to the surface of the bone ``bones[i]`` (m).
 
@@ -321,7 +351,7 @@ class JLDMap:
         out = np.empty(len(x))
         for b in np.unique(bones):
             at = bones == b
-            tree = self._trees.get(int(b))
+            tree = self._tree(int(b))
             if tree is not None:
                 out[at] = tree.query(x[at])[0]
             else:
@@ -577,15 +607,16 @@ class JLDMap:
     # --- mapping --------------------------------------------------------------------
 
     def _pose_data(self, angles: Mapping[str, ArrayLike] | None) -> dict[str, NDArray]:
+        """Bone transforms, flexions, pivots and flexion ratios of one pose."""
         sk = self.skeleton
-        a = sk.check_angles(angles)
-        if next(iter(a.values())).shape != ():
+        vec = sk.angle_vector(angles)
+        if vec.ndim != 1:
             raise ValueError("JLDMap maps one pose at a time (scalar angles)")
-        tf = sk.forward_kinematics(a)
-        flex = np.array([float(a[j]) for j in self._joint_names])
-        piv = np.array([float(a.get(j + PIVOT_SUFFIX, 0.0)) for j in self._joint_names])
+        world = np.concatenate([sk.transform_stack(vec), np.eye(4)[None]])
+        flex = vec[self._flex_col]
+        piv = np.where(self._piv_col >= 0, vec[np.maximum(self._piv_col, 0)], 0.0)
         return {
-            "T": np.stack([tf[n] for n in self.topology.names]),
+            "T": world[self._bone_joint],
             "flex": flex,
             "piv": piv,
             "fr": np.clip(flex / self._jmax, 0.0, 1.0),

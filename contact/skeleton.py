@@ -59,6 +59,17 @@ def rotation_matrices(axes: ArrayLike, degrees: ArrayLike) -> NDArray[np.float64
     return np.eye(3) + np.sin(t) * k + (1.0 - np.cos(t)) * (k @ k)
 
 
+def _cross_matrices(axes: NDArray[np.float64]) -> dict[str, NDArray[np.float64]]:
+    """Cross-product matrices ``k`` of unit axes (n, 3) and their squares ``kk``.
+
+    ``I + sin(t) k + (1 - cos(t)) kk`` is then :func:`rotation_matrices` term by term.
+    """
+    k = np.zeros((len(axes), 3, 3))
+    k[:, 0, 1], k[:, 0, 2], k[:, 1, 2] = -axes[:, 2], axes[:, 1], -axes[:, 0]
+    k -= np.swapaxes(k, -1, -2)
+    return {"k": k, "kk": k @ k}
+
+
 class Skeleton:
     """Joints, bones and skin primitives of a hand rig, with forward kinematics.
 
@@ -98,6 +109,10 @@ class Skeleton:
     @property
     def joints(self) -> dict[str, JointSpec]:
         """Joints by name, parents before children."""
+        return dict(self._joints)
+
+    @cached_property
+    def _joints(self) -> dict[str, JointSpec]:
         return {n: self.spec.joints[n] for n in self._order}
 
     @property
@@ -142,6 +157,88 @@ class Skeleton:
 
     # --- kinematics -------------------------------------------------------------------
 
+    @cached_property
+    def _table(self) -> dict[str, NDArray]:
+        """Per angle its limits, per joint its axes, position, angle columns and parent."""
+        names = list(self.limits)
+        col = {n: i for i, n in enumerate(names)}
+        joints = [self.spec.joints[n] for n in self._order]
+        index = {n: i for i, n in enumerate(self._order)}
+        return {
+            "col": col,
+            "lo": np.array([self.limits[n][0] for n in names]) - _TOL,
+            "hi": np.array([self.limits[n][1] for n in names]) + _TOL,
+            "flex_col": np.array([col[j.name] for j in joints]),
+            "piv_col": np.array([col.get(j.name + PIVOT_SUFFIX, -1) for j in joints]),
+            "pos": np.stack([j.position for j in joints]),
+            # Rodrigues' cross-product matrices K and K @ K of the flexion, then pivot, axes
+            **_cross_matrices(
+                np.concatenate(
+                    [
+                        np.stack([j.flexion_axis for j in joints]),
+                        np.stack(
+                            [
+                                j.pivot_axis if j.pivot_axis is not None else [0, 0, 1.0]
+                                for j in joints
+                            ]
+                        ),
+                    ]
+                )
+            ),
+            "parent": np.array([index.get(j.parent, -1) for j in joints]),
+            "levels": [np.flatnonzero(self._depth == d) for d in range(int(self._depth.max()) + 1)],
+        }
+
+    def angle_vector(self, angles: Mapping[str, ArrayLike] | None) -> NDArray[np.float64]:
+        """Validated angles as one array, columns in :attr:`angle_names` order.
+
+        Parameters
+        ----------
+        angles : mapping of str to float or array_like, optional
+            Degrees, by angle name; missing angles are 0 (rest).
+
+        Returns
+        -------
+        ndarray, shape (*batch, n_angles)
+            Every angle, broadcast to the common batch shape.
+
+        Raises
+        ------
+        RigError
+            Naming an unknown joint angle, an angle that is not finite, or one outside
+            its joint's limits (the first such angle in :attr:`angle_names` order).
+        """
+        tab = self._table
+        col = tab["col"]
+        values = {}
+        for name, v in (angles or {}).items():
+            if name not in col:
+                raise RigError(
+                    f"unknown joint angle {name!r} (flexions are named after the joint, "
+                    f"pivots '<joint>{PIVOT_SUFFIX}'; joints: {', '.join(self._order)})"
+                )
+            values[col[name]] = np.asarray(v, dtype=np.float64)
+        shapes = {v.shape for v in values.values()}
+        shape = shapes.pop() if len(shapes) == 1 else np.broadcast_shapes(*shapes)
+        vec = np.zeros((*shape, len(col)))
+        for i, v in values.items():
+            vec[..., i] = v
+        flat = vec.reshape(-1, len(col))
+        bad = ~np.isfinite(flat) | (flat < tab["lo"]) | (flat > tab["hi"])
+        if bad.any():
+            self._angle_error(flat, bad)
+        return vec
+
+    def _angle_error(self, flat: NDArray, bad: NDArray) -> None:
+        """Raise the :class:`RigError` of the first bad angle column."""
+        names = list(self.limits)
+        i = int(np.flatnonzero(bad.any(axis=0))[0])
+        name, (lo, hi) = names[i], self.limits[names[i]]
+        if not np.isfinite(flat[:, i]).all():
+            raise RigError(f"joint angle {name} is not finite")
+        value = flat[bad[:, i], i][0]
+        raise RigError(f"joint angle {name} = {value:g} deg is outside its limits [{lo:g}, {hi:g}]")
+
     def check_angles(self, angles: Mapping[str, ArrayLike] | None) -> dict[str, NDArray]:
         """Validate angles against names and limits; missing angles are 0 (rest).
 
@@ -160,27 +257,44 @@ class Skeleton:
         RigError
             Naming an unknown joint angle, or an angle outside its joint's limits.
         """
-        angles = dict(angles or {})
-        for name in angles:
-            if name not in self.limits:
-                raise RigError(
-                    f"unknown joint angle {name!r} (flexions are named after the joint, "
-                    f"pivots '<joint>{PIVOT_SUFFIX}'; joints: {', '.join(self._order)})"
-                )
-        values = {n: np.asarray(v, dtype=np.float64) for n, v in angles.items()}
-        shape = np.broadcast_shapes(*(v.shape for v in values.values())) if values else ()
-        out = {}
-        for name, (lo, hi) in self.limits.items():
-            v = values.get(name, np.zeros(()))
-            if not np.isfinite(v).all():
-                raise RigError(f"joint angle {name} is not finite")
-            if (v < lo - _TOL).any() or (v > hi + _TOL).any():
-                bad = v[(v < lo - _TOL) | (v > hi + _TOL)].ravel()[0]
-                raise RigError(
-                    f"joint angle {name} = {bad:g} deg is outside its limits [{lo:g}, {hi:g}]"
-                )
-            out[name] = np.broadcast_to(v, shape)
-        return out
+        vec = self.angle_vector(angles)
+        return {n: vec[..., i] for i, n in enumerate(self.limits)}
+
+    def transform_stack(self, vector: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Rigid transforms (rest to posed) of the joints from an :meth:`angle_vector`.
+
+        Parameters
+        ----------
+        vector : ndarray, shape (*batch, n_angles)
+            Validated angles (degrees), columns in :attr:`angle_names` order.
+
+        Returns
+        -------
+        ndarray, shape (*batch, n_joints, 4, 4)
+            In :attr:`joint_names` order.
+        """
+        tab = self._table
+        shape = vector.shape[:-1]
+        pos = tab["pos"]
+        n = len(pos)
+        piv_col = tab["piv_col"]
+        piv_deg = np.where(piv_col >= 0, vector[..., np.maximum(piv_col, 0)], 0.0)
+        t = np.radians(np.concatenate([vector[..., tab["flex_col"]], piv_deg], axis=-1))
+        t = t[..., None, None]
+        r = np.eye(3) + np.sin(t) * tab["k"] + (1.0 - np.cos(t)) * tab["kk"]  # Rodrigues
+        rot = r[..., n:, :, :] @ r[..., :n, :, :]  # (*batch, n_joints, 3, 3)
+        local = np.zeros((*shape, len(pos), 4, 4))
+        local[..., :3, :3] = rot
+        local[..., :3, 3] = pos - np.einsum("...ij,...j->...i", rot, pos)
+        local[..., 3, 3] = 1.0
+        world = np.empty_like(local)
+        parents = tab["parent"]
+        for d, at in enumerate(tab["levels"]):  # one batched product per tree level
+            if d == 0:
+                world[..., at, :, :] = local[..., at, :, :]
+            else:
+                world[..., at, :, :] = world[..., parents[at], :, :] @ local[..., at, :, :]
+        return world
 
     def joint_transforms(
         self, angles: Mapping[str, ArrayLike] | None = None
@@ -197,33 +311,10 @@ class Skeleton:
         dict of str to ndarray, shape (*batch, 4, 4)
             Keyed by joint name, plus ``"root"`` (the identity).
         """
-        a = self.check_angles(angles)
-        shape = next(iter(a.values())).shape
-        joints = [self.spec.joints[n] for n in self._order]
-        flex = rotation_matrices(
-            np.stack([j.flexion_axis for j in joints]), np.stack([a[j.name] for j in joints], -1)
-        )
-        piv_axes = np.stack(
-            [j.pivot_axis if j.pivot_axis is not None else [0, 0, 1.0] for j in joints]
-        )
-        piv_deg = np.stack([a.get(j.name + PIVOT_SUFFIX, np.zeros(shape)) for j in joints], -1)
-        rot = rotation_matrices(piv_axes, piv_deg) @ flex  # (*batch, n_joints, 3, 3)
-        pos = np.stack([j.position for j in joints])
-        local = np.zeros((*shape, len(joints), 4, 4))
-        local[..., :3, :3] = rot
-        local[..., :3, 3] = pos - np.einsum("...ij,...j->...i", rot, pos)
-        local[..., 3, 3] = 1.0
-        world = np.empty_like(local)
-        index = {n: i for i, n in enumerate(self._order)}
-        parents = np.array([index.get(j.parent, -1) for j in joints])
-        for d in range(int(self._depth.max()) + 1):  # one batched product per tree level
-            at = np.flatnonzero(self._depth == d)
-            if d == 0:
-                world[..., at, :, :] = local[..., at, :, :]
-            else:
-                world[..., at, :, :] = world[..., parents[at], :, :] @ local[..., at, :, :]
+        vec = self.angle_vector(angles)
+        world = self.transform_stack(vec)
         out = {n: world[..., i, :, :] for i, n in enumerate(self._order)}
-        out[ROOT] = np.broadcast_to(np.eye(4), (*shape, 4, 4))
+        out[ROOT] = np.broadcast_to(np.eye(4), (*vec.shape[:-1], 4, 4))
         return out
 
     def forward_kinematics(

@@ -84,3 +84,18 @@ def test_no_contact_in_the_bracket_is_reported_not_raised(hand):
         auto_flex(hand, "middle", far, "middle_pap")
     with pytest.raises(RigError, match=r"bracket \[0, 200\] of middle_pip"):
         auto_flex(hand, "middle", far, "middle_pip", bracket=(0.0, 200.0))
+
+
+def test_fingertip_is_the_farthest_boundary_node_nearest_its_bone(hand):
+    nodes = hand.flesh.boundary.nodes
+    x = hand.flesh.points[nodes]
+    sk = hand.skeleton
+    a = np.stack([b.start for b in sk.bones.values()])
+    ab = np.stack([b.end for b in sk.bones.values()]) - a
+    t = np.clip(np.einsum("nbk,bk->nb", x[:, None] - a, ab) / (ab * ab).sum(1), 0.0, 1.0)
+    nearest = np.argmin(np.linalg.norm(x[:, None] - (a + t[..., None] * ab), axis=2), axis=1)
+    for finger in ("thumb", "index", "middle", "ring", "little"):
+        bone = sk.bones[f"{finger}_distal"]
+        mine = nearest == sk.bone_names.index(bone.name)
+        along = np.where(mine, (x - bone.start) @ ((bone.end - bone.start) / bone.length), -np.inf)
+        assert fingertip_node(hand, finger) == nodes[np.argmax(along)], finger

@@ -184,3 +184,50 @@ def test_rig_errors_name_file_and_key(tmp_path, old, new, message):
 def test_missing_rig_file(tmp_path):
     with pytest.raises(RigError, match=re.escape(str(tmp_path / "none.toml"))):
         load_skeleton(tmp_path / "none.toml")
+
+
+def test_angle_vector_matches_the_per_angle_check(skeleton):
+    angles = random_angles(skeleton, 7, seed=3)
+    vec = skeleton.angle_vector(angles)
+    assert vec.shape == (7, len(skeleton.angle_names))
+    for i, name in enumerate(skeleton.angle_names):
+        np.testing.assert_array_equal(vec[:, i], angles[name])
+    scalar = skeleton.angle_vector({"index_mcp": 30.0, "wrist_pivot": -5})
+    assert scalar.shape == (len(skeleton.angle_names),)
+    assert scalar[skeleton.angle_names.index("index_mcp")] == 30.0
+    assert scalar[skeleton.angle_names.index("wrist_pivot")] == -5.0
+    assert np.count_nonzero(scalar) == 2
+    assert skeleton.angle_vector({"index_mcp": [[1.0], [2.0]], "wrist": [0.0, 3.0, 4.0]}).shape == (
+        2,
+        3,
+        len(skeleton.angle_names),
+    )
+
+
+def test_angle_errors_not_finite_and_first_in_order(skeleton):
+    with pytest.raises(RigError, match="joint angle index_pip is not finite"):
+        skeleton.check_angles({"index_pip": float("nan")})
+    with pytest.raises(RigError, match="joint angle index_pip is not finite"):
+        skeleton.angle_vector({"index_pip": [0.0, np.inf]})
+    # both bad: the error names the first in angle_names order, whatever the dict's order
+    names = skeleton.angle_names
+    first, second = names.index("index_mcp"), names.index("little_dip")
+    assert first < second
+    with pytest.raises(RigError, match="index_mcp = 95 deg"):
+        skeleton.angle_vector({"little_dip": 100.0, "index_mcp": 95.0})
+
+
+def test_transform_stack_is_rodrigues_joint_by_joint(skeleton):
+    angles = random_angles(skeleton, 3, seed=5)
+    world = skeleton.transform_stack(skeleton.angle_vector(angles))
+    jt = skeleton.joint_transforms(angles)
+    for i, (name, j) in enumerate(skeleton.joints.items()):
+        piv = angles.get(name + PIVOT_SUFFIX, np.zeros(3))
+        axis = j.pivot_axis if j.pivot_axis is not None else [0.0, 0.0, 1.0]
+        rot = rotation_matrices(axis, piv) @ rotation_matrices(j.flexion_axis, angles[name])
+        local = np.tile(np.eye(4), (3, 1, 1))
+        local[:, :3, :3] = rot
+        local[:, :3, 3] = j.position - rot @ j.position
+        expect = jt[j.parent] @ local
+        np.testing.assert_allclose(world[:, i], expect, atol=1e-14)
+        np.testing.assert_array_equal(jt[name], world[:, i])

@@ -212,3 +212,22 @@ def test_rig_jld_section_defaults_overrides_and_errors(tmp_path):
     )
     with pytest.raises(RigError, match=r"jld.joints.thumb_xyz"):
         read_rig(tmp_path / "bad2.toml")
+
+
+def test_a_subset_of_points_maps_as_in_the_whole(hand, jld):
+    """Localised alone (against the whole flesh's bone nodes), points map as in the whole."""
+    rng = np.random.default_rng(4)
+    pick = rng.choice(hand.flesh.n_points, 40, replace=False)
+    sub = JLDMap(
+        hand.skeleton,
+        hand.flesh.points[pick],
+        hand.bone_id[pick],
+        reference=(hand.flesh.points, hand.bone_id),
+    )
+    np.testing.assert_allclose(sub.map(POSE), jld.map(POSE)[pick], rtol=0, atol=1e-12)
+    assert len(sub._trees) < len(jld._trees)  # only the bones these points need
+
+
+def test_one_pose_at_a_time(jld):
+    with pytest.raises(ValueError, match="one pose at a time"):
+        jld.map({"index_mcp": [10.0, 20.0]})
