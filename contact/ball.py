@@ -9,6 +9,7 @@ radius of their centroids against the mid-wall radius.
 
 from __future__ import annotations
 
+import logging
 import math
 import os
 import warnings
@@ -27,6 +28,7 @@ __all__ = ["RADIUS_TOL", "Ball", "BallError", "BallSpec", "make_ball"]
 #: Boundary nodes of a ball read from a file must lie within this fraction of the radius
 #: of their sphere (and within a quarter of a hollow ball's wall thickness).
 RADIUS_TOL = 0.02
+log = logging.getLogger(__name__)
 _ICO_EDGE = 4.0 / math.sqrt(10.0 + 2.0 * math.sqrt(5.0))  # icosahedron edge / circumradius
 
 
@@ -62,7 +64,8 @@ class BallSpec:
         Target element edge length (m), in (0, radius]. Exactly one of ``mesh_size`` and
         ``mesh`` is given.
     mesh : str or path-like, optional
-        A volume mesh file to use instead; it must be this ball (see :func:`make_ball`).
+        A volume mesh file to use instead, or a closed surface file to fill with
+        tetrahedra; it must be this ball (see :func:`make_ball`).
     center : tuple of 3 floats
         Centre (m).
     E, nu, density : float
@@ -230,6 +233,20 @@ def _check_file(mesh: fem.Mesh, spec: BallSpec, path: Path) -> None:
         )
 
 
+def _read_file(path: Path) -> fem.Mesh:
+    """The ball's volume mesh from a file; a closed surface is filled with tetrahedra."""
+    try:
+        return fem.read_mesh(path)
+    except fem.NoVolumeCellsError as exc:
+        if not exc.surface:
+            raise
+    log.info("ball.mesh = '%s' is a surface: tetrahedralised at its mean edge length", path)
+    try:
+        return fem.tetrahedralize(path, None)
+    except fem.MeshError as exc:
+        raise BallError(f"ball.mesh = '{path}' is a surface that cannot be filled: {exc}") from None
+
+
 def make_ball(spec: BallSpec) -> Ball:
     """Mesh a ball, or read and check its mesh file, and set up its pressure load.
 
@@ -241,7 +258,8 @@ def make_ball(spec: BallSpec) -> Ball:
     :func:`fem.tetrahedralize` of an icosphere whose edges are no longer than ``h``
     (hollow: with the inner sphere flipped inward to make the cavity); a hollow tet ball
     warns when ``h`` exceeds half the wall thickness. A mesh file is read with
-    :func:`fem.read_mesh` and must be the ball of the spec: its outer (and for a hollow
+    :func:`fem.read_mesh` (a closed surface file is filled by :func:`fem.tetrahedralize`
+    at its own mean edge length) and must be the ball of the spec: its outer (and for a hollow
     ball its inner) boundary nodes within :data:`RADIUS_TOL` of the radius about the
     centre.
 
@@ -262,7 +280,7 @@ def make_ball(spec: BallSpec) -> Ball:
     """
     if spec.mesh is not None:
         path = Path(spec.mesh)
-        mesh = fem.read_mesh(path)
+        mesh = _read_file(path)
         _check_file(mesh, spec, path)
     else:
         mesh = _generate(spec)

@@ -9,7 +9,14 @@ from __future__ import annotations
 
 from .assembly import assemble_stiffness, element_dofs, element_stiffness
 from .elements import ELEMENTS, HEX8, TET4, WEDGE6, ReferenceElement
-from .errors import FemError, LoadError, MaterialError, MeshError, SolverError
+from .errors import (
+    FemError,
+    LoadError,
+    MaterialError,
+    MeshError,
+    NoVolumeCellsError,
+    SolverError,
+)
 from .generators import (
     ball_mesh,
     box_mesh,
@@ -49,6 +56,7 @@ __all__ = [
     "MaterialError",
     "Mesh",
     "MeshError",
+    "NoVolumeCellsError",
     "ReferenceElement",
     "SolverError",
     "StaticSolution",

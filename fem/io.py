@@ -1,8 +1,14 @@
 """Reading and writing volume meshes with meshio (the only module of the project that does).
 
 Only volume cells (``tetra``, ``hexahedron``, ``wedge``) are kept on reading; surface and
-line cells are dropped, and so are the points no volume cell uses. Region ids come from the
-cell data ``"region"`` (else ``"gmsh:physical"``, ``"medit:ref"`` or ``"CellEntityIds"``).
+line cells are dropped, and so are the points no volume cell uses. Second-order cells
+(``tetra10``, ``hexahedron20`` and ``27``, ``wedge15`` and ``18``) are read as linear ones
+on their corner nodes, with a warning: the elements here are linear. A cell type wound the
+other way throughout the file (every cell's volume negative at every integration point:
+some tools' convention, pytetwild without ``vtk_ordering``) is re-ordered, with a warning;
+a mesh where only some cells are negative is tangled, and stays an error naming the first.
+Region ids come from the cell data ``"region"`` (else ``"gmsh:physical"``, ``"medit:ref"``
+or ``"CellEntityIds"``).
 Files are written atomically: to a hidden temporary file in the target directory, then
 :func:`os.replace`, so a failed write never leaves a half-written or clobbered file.
 
@@ -22,6 +28,7 @@ volumes, and the round trip is exact. Other formats (Gmsh, Abaqus, ...) use our 
 
 from __future__ import annotations
 
+import logging
 import os
 import uuid
 from collections.abc import Mapping
@@ -32,7 +39,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .elements import ELEMENTS
-from .errors import MeshError
+from .errors import MeshError, NoVolumeCellsError
+from .mapping import det3, jacobians
 from .mesh import Mesh
 
 __all__ = ["REGION_NAMES", "read_mesh", "read_mesh_data", "write_mesh"]
@@ -45,7 +53,24 @@ _WEDGE_SWAP = np.array([0, 2, 1, 3, 5, 4])  # its own inverse
 _PREFERRED = {".msh": "gmsh"}  # meshio would pick "ansys" first for .msh
 _MULTI_FILE = frozenset({"tetgen"})
 
+#: Second-order cell types read as the linear type on their corner nodes (listed first).
+_SECOND_ORDER = {
+    "tetra10": "tetra",
+    "hexahedron20": "hexahedron",
+    "hexahedron27": "hexahedron",
+    "wedge15": "wedge",
+    "wedge18": "wedge",
+}
+#: Node order of the mirror image of each cell (the same cell, wound the other way).
+_MIRROR = {
+    "tetra": np.array([0, 2, 1, 3]),
+    "hexahedron": np.array([0, 3, 2, 1, 4, 7, 6, 5]),
+    "wedge": np.array([0, 2, 1, 3, 5, 4]),
+}
+
 PathLike = str | os.PathLike
+
+log = logging.getLogger(__name__)
 
 
 def _meshio() -> Any:
@@ -176,8 +201,10 @@ def read_mesh_data(
     Raises
     ------
     MeshError
-        Naming the file: missing, unknown format, unreadable, no volume cells, or a
-        malformed mesh.
+        Naming the file: missing, unknown format, unreadable, or a malformed mesh.
+    NoVolumeCellsError
+        A file without volume cells (a :class:`MeshError`; its ``surface`` tells whether
+        it holds a surface to tetrahedralise, :func:`fem.tetrahedralize`).
     """
     path = Path(path)
     if not path.is_file():
@@ -186,20 +213,32 @@ def read_mesh_data(
     raw, fmt = _read_raw(path, file_format)
     blocks: dict[str, list[int]] = {}
     for i, block in enumerate(raw.cells):
-        if block.type in ELEMENTS:
-            blocks.setdefault(block.type, []).append(i)
+        kind = _SECOND_ORDER.get(block.type, block.type)
+        if kind in ELEMENTS:
+            blocks.setdefault(kind, []).append(i)
     if not blocks:
         found = sorted({b.type for b in raw.cells})
-        raise MeshError(
-            f"mesh file {path} has no volume cells (tetra, hexahedron, wedge); "
-            f"cell types found: {', '.join(found) or 'none'}"
+        raise NoVolumeCellsError(
+            f"mesh file {path} has no volume cells (tetra, hexahedron, wedge, or their "
+            f"second-order kinds); cell types found: {', '.join(found) or 'none'}",
+            tuple(found),
+        )
+    second = sorted({raw.cells[i].type for idx in blocks.values() for i in idx} - set(ELEMENTS))
+    if second:
+        log.warning(
+            "mesh file %s: second-order cells (%s) read as linear ones on their corner nodes",
+            path,
+            ", ".join(second),
         )
     cells = {
-        k: np.concatenate([np.asarray(raw.cells[i].data) for i in idx]).astype(np.int64)
+        k: np.concatenate(
+            [np.asarray(raw.cells[i].data)[:, : ELEMENTS[k].n_nodes] for i in idx]
+        ).astype(np.int64)
         for k, idx in blocks.items()
     }
     if fmt in _VTK_FORMATS and "wedge" in cells:
         cells["wedge"] = cells["wedge"][:, _WEDGE_SWAP]
+    _unmirror(raw.points, cells, path)
     cell_data = {
         name: {k: np.concatenate([np.asarray(arrs[i]) for i in idx]) for k, idx in blocks.items()}
         for name, arrs in raw.cell_data.items()
@@ -211,6 +250,39 @@ def read_mesh_data(
     mesh, keep = _build(raw.points, cells, regions, f"mesh file {path}")
     point_data = {n: np.asarray(a)[keep] for n, a in raw.point_data.items()}
     return mesh, point_data, cell_data
+
+
+def _unmirror(points: ArrayLike, cells: dict[str, NDArray[np.int64]], path: Path) -> None:
+    """Re-order, in place, a cell type wound the other way throughout the file.
+
+    When every cell of a type has a negative Jacobian at every integration point, the
+    file numbers its cells the other way round (a tool's convention, or pytetwild without
+    ``vtk_ordering``): they are the mirror numbering of sound cells. Where only some
+    cells are negative the mesh is tangled or distorted, and :class:`Mesh` names the
+    first of them.
+    """
+    pts = np.asarray(points, dtype=np.float64)
+    if pts.ndim != 2 or pts.shape[1] != 3 or not np.isfinite(pts).all():
+        return  # Mesh names the bad points
+    for kind, conn in cells.items():
+        if not len(conn) or ((conn < 0) | (conn >= len(pts))).any():
+            continue  # Mesh names the bad index
+        mirrored = True
+        for start in range(0, len(conn), 200_000):
+            block = conn[start : start + 200_000]
+            detj = det3(jacobians(pts[block], ELEMENTS[kind]))
+            if not (detj < 0).all():
+                mirrored = False
+                break
+        if mirrored:
+            cells[kind] = conn[:, _MIRROR[kind]]
+            log.warning(
+                "mesh file %s: its %d %s cells are wound the other way (negative volume): "
+                "re-ordered",
+                path,
+                len(conn),
+                kind,
+            )
 
 
 def read_mesh(path: PathLike, *, file_format: str | None = None) -> Mesh:

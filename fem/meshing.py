@@ -209,7 +209,7 @@ def _sizing_arrays(field: Any) -> dict[str, NDArray]:
 
 def tetrahedralize(
     surface: str | os.PathLike | pyvista.PolyData | tuple[ArrayLike, ArrayLike],
-    edge_length: float,
+    edge_length: float | None,
     *,
     sizing_field: pyvista.UnstructuredGrid | tuple | None = None,
     optimize: bool = True,
@@ -223,8 +223,9 @@ def tetrahedralize(
         A file pyvista reads (cleaned: coincident points merged), a surface (triangulated
         and cleaned) or arrays. Nested closed surfaces make holes where the inner one is
         oriented inward (see the module docstring).
-    edge_length : float
-        Target tetrahedron edge length (absolute, in the surface's units).
+    edge_length : float or None
+        Target tetrahedron edge length (absolute, in the surface's units); None: the
+        surface's own mean edge length.
     sizing_field : pyvista.UnstructuredGrid or tuple, optional
         A tetrahedral background mesh whose active point scalars are target edge lengths,
         or ``(points, tets, values)``; needs ``optimize=True``.
@@ -248,10 +249,13 @@ def tetrahedralize(
     """
     import pytetwild
 
-    if not edge_length > 0:
+    if edge_length is not None and not edge_length > 0:
         raise MeshError(f"edge_length must be positive, got {edge_length!r}")
     points, tris, source = _load_surface(surface)
     check_surface(points, tris, source=source)
+    if edge_length is None:
+        x = np.asarray(points, dtype=np.float64)[np.asarray(tris)]
+        edge_length = float(np.linalg.norm(x - np.roll(x, 1, axis=1), axis=2).mean())
     what = source or "the surface"
     sizing = _sizing_arrays(sizing_field)
     # fTetWild writes "__tracked_surface.stl" into the working directory: run it in a

@@ -132,6 +132,27 @@ def test_mesh_file_round_trip(tmp_path):
     np.testing.assert_allclose(read.loads, made.loads, atol=1e-12 * np.abs(made.loads).max())
 
 
+def test_surface_file_is_filled_with_tetrahedra(tmp_path):
+    import pyvista as pv
+
+    surface = pv.Icosphere(radius=R, center=CENTER, nsub=2)  # 320 triangles
+    path = tmp_path / "ball.stl"
+    surface.save(path)
+    ball = make_ball(spec("solid", mesh_size=None, mesh=path))
+    assert set(ball.mesh.cells) == {"tetra"}
+    r = radii(ball, ball.outer_nodes)
+    assert np.abs(r - R).max() < 0.02 * R
+    volume = sum(float(v.sum()) for v in ball.mesh.volumes.values())
+    assert volume == pytest.approx(surface.volume, rel=0.01)  # the faceted sphere's own
+    x = surface.points[surface.regular_faces]
+    h = float(np.linalg.norm(x - np.roll(x, 1, axis=1), axis=2).mean())
+    assert 0.5 * h < longest_edge(ball) < 2.0 * h  # at the surface's size
+    not_closed = tmp_path / "open.stl"
+    surface.clip("z", origin=CENTER).save(not_closed)
+    with pytest.raises(BallError, match=r"open\.stl' is a surface that cannot be filled"):
+        make_ball(spec("solid", mesh_size=None, mesh=not_closed))
+
+
 def test_mesh_file_not_this_ball_is_refused(tmp_path):
     path = tmp_path / "solid.vtu"
     fem.write_mesh(path, make_ball(spec("solid")).mesh)

@@ -148,20 +148,57 @@ def test_read_errors_name_the_file(tmp_path):
     assert err.__cause__ is None and (err.__context__ is None or err.__suppress_context__)
     surface = tmp_path / "surface.vtu"
     pv.Sphere().cast_to_unstructured_grid().save(surface)
-    with pytest.raises(fem.MeshError, match=r"surface\.vtu has no volume cells.*triangle"):
+    with pytest.raises(
+        fem.NoVolumeCellsError, match=r"surface\.vtu has no volume cells.*triangle"
+    ) as no:
         fem.read_mesh(surface)
+    assert no.value.surface and no.value.cell_types == ("triangle",)
     with pytest.raises(fem.MeshError, match="is not a file"):
         fem.read_mesh(tmp_path)
 
 
-def test_read_inverted_cells_names_the_file(tmp_path):
+def test_read_tangled_cells_names_the_file(tmp_path):
     mesh = _meshes()["tetra"]
     grid = fem.to_pyvista(mesh)
-    tets = mesh.cells["tetra"][:, [0, 2, 1, 3]]
+    tets = mesh.cells["tetra"].copy()
+    tets[1] = tets[1][[0, 2, 1, 3]]  # one cell of many wound the other way: tangled
     bad = pv.UnstructuredGrid({pv.CellType.TETRA: tets}, grid.points)
     bad.save(tmp_path / "inv.vtu")
-    with pytest.raises(fem.MeshError, match=r"inv\.vtu: tetra element 0 is inverted"):
+    with pytest.raises(fem.MeshError, match=r"inv\.vtu: tetra element 1 is inverted"):
         fem.read_mesh(tmp_path / "inv.vtu")
+
+
+@pytest.mark.parametrize("kind", ["tetra", "hexahedron", "wedge"])
+def test_cells_wound_the_other_way_throughout_are_reordered(tmp_path, kind, caplog):
+    import meshio
+
+    mesh = _meshes()[kind]
+    mirrored = mesh.cells[kind][:, fem_io._MIRROR[kind]]
+    path = tmp_path / "mirrored.msh"  # Gmsh: our node order as is
+    meshio.write(path, meshio.Mesh(mesh.points, [(kind, mirrored)]), file_format="gmsh22")
+    with caplog.at_level("WARNING", logger="fem.io"):
+        read = fem.read_mesh(path)
+    assert "wound the other way" in caplog.text and "mirrored.msh" in caplog.text
+    np.testing.assert_allclose(read.volumes[kind], mesh.volumes[kind], rtol=1e-12)
+    assert (read.volumes[kind] > 0).all()
+
+
+def test_second_order_cells_are_read_on_their_corners(tmp_path, caplog):
+    import meshio
+
+    mesh = _meshes()["tetra"]
+    tets = mesh.cells["tetra"]
+    edges = np.sort(tets[:, [[0, 1], [1, 2], [0, 2], [0, 3], [1, 3], [2, 3]]], axis=2)
+    uniq, inv = np.unique(edges.reshape(-1, 2), axis=0, return_inverse=True)
+    mid = 0.5 * (mesh.points[uniq[:, 0]] + mesh.points[uniq[:, 1]])
+    t10 = np.hstack([tets, inv.reshape(-1, 6) + mesh.n_points])
+    path = tmp_path / "quadratic.vtu"
+    meshio.write(path, meshio.Mesh(np.vstack([mesh.points, mid]), [("tetra10", t10)]))
+    with caplog.at_level("WARNING", logger="fem.io"):
+        read = fem.read_mesh(path)
+    assert "second-order cells (tetra10)" in caplog.text
+    assert read.n_points == mesh.n_points  # the mid-edge nodes are dropped
+    np.testing.assert_array_equal(read.cells["tetra"], tets)
 
 
 def test_write_is_atomic_on_bad_data(tmp_path):
