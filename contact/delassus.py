@@ -199,8 +199,9 @@ class ContactSpace:
         ContactError
             When the contacts do not hold a free body whose loads are out of balance.
         """
-        sys_ = self.system(e, g0)
-        lam, a = _saddle(sys_.w, sys_.g, sys_.rhs, sys_.c, list(sys_.free), sys_.load_scale)
+        with fem.dense_threads(g0.size):
+            sys_ = self.system(e, g0)
+            lam, a = _saddle(sys_.w, sys_.g, sys_.rhs, sys_.c, list(sys_.free), sys_.load_scale)
         return lam, self.states(e, lam, a)
 
     def solve_unilateral(
@@ -234,19 +235,20 @@ class ContactSpace:
         ContactError
             When the contacts do not hold a free body whose loads are out of balance.
         """
-        sys_ = self.system(e, g0)
-        try:
-            res = solve_lcp(
-                sys_.w,
-                sys_.g,
-                sys_.rhs,
-                sys_.c,
-                tol=tol,
-                start=start,
-                load_scale=sys_.load_scale,
-            )
-        except fem.LoadError:
-            raise ContactError(_unheld(list(sys_.free))) from None
+        with fem.dense_threads(g0.size):  # small dense work: one BLAS thread
+            sys_ = self.system(e, g0)
+            try:
+                res = solve_lcp(
+                    sys_.w,
+                    sys_.g,
+                    sys_.rhs,
+                    sys_.c,
+                    tol=tol,
+                    start=start,
+                    load_scale=sys_.load_scale,
+                )
+            except fem.LoadError:
+                raise ContactError(_unheld(list(sys_.free))) from None
         return res, self.states(e, res.lam, res.a)
 
 

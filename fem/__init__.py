@@ -40,6 +40,7 @@ from .meshing import check_surface, sphere_surface, tetrahedralize
 from .pvmesh import from_pyvista, to_pyvista
 from .statics import StaticSolution, StaticSolver, check_balance, rigid_body_modes
 from .stress import cell_stress, gauss_strain, nodal_average, von_mises
+from .threads import dense_threads
 
 __version__ = "0.1.0"
 
@@ -69,6 +70,7 @@ __all__ = [
     "cell_stress",
     "check_balance",
     "check_surface",
+    "dense_threads",
     "elasticity_matrix",
     "element_dofs",
     "element_stiffness",
