@@ -32,6 +32,7 @@ import scipy.linalg as sla
 from numpy.typing import NDArray
 
 from fem.statics import cholesky_or_none, held_modes, solve_saddle, solve_saddle_with
+from fem.threads import dense_threads
 
 __all__ = ["REFACTOR", "REPEATS", "LcpResult", "solve_lcp"]
 
@@ -110,6 +111,21 @@ def solve_lcp(
     fem.LoadError
         If the closed rows cannot hold a free body whose loads are out of balance.
     """
+    with dense_threads(np.size(rhs)):  # small dense work: one BLAS thread
+        return _active_set(w, g, rhs, c, tol, start, load_scale, max_steps)
+
+
+def _active_set(
+    w: NDArray[np.float64],
+    g: NDArray[np.float64],
+    rhs: NDArray[np.float64],
+    c: NDArray[np.float64],
+    tol: NDArray[np.float64] | float,
+    start: NDArray[np.float64] | None,
+    load_scale: float,
+    max_steps: int | None,
+) -> LcpResult:
+    """:func:`solve_lcp`'s primal active-set iteration."""
     m = rhs.size
     tol_arr = np.broadcast_to(np.asarray(tol, dtype=np.float64), (m,))
     if start is None:

@@ -4,10 +4,11 @@ OpenBLAS's worker threads spin while they wait for work. Where another process k
 other cores busy, a threaded Cholesky factorisation or product of a few hundred rows then
 takes tens of times longer than on one thread. Measured on two cores with one other busy
 process (the frictionless LCP of :mod:`contact.lcp`, Hertz on a half-space): 400 rows,
-1.0 s threaded against 0.03 s on one thread; 1,024 rows, 1.5 s against 0.08 s. Below
-:data:`SMALL_DENSE` rows one thread is as fast on an idle machine too; above it the
-threads pay (3,025 rows: 0.65 s against 0.71 s idle). MKL, behind PARDISO's sparse
-factorisations, is left alone: only OpenBLAS is limited.
+1.0 s threaded against 0.03 s on one thread; 1,024 rows, 1.5 s against 0.08 s; 3,025
+rows, 3.8-4.1 s against 0.8-1.1 s. On an idle machine the threads gain little (3,025
+rows: 0.65 s against 0.71 s), so dense problems below :data:`SMALL_DENSE` rows (every
+contact set met so far) run on one thread. MKL, behind PARDISO's sparse factorisations,
+is left alone: only OpenBLAS is limited.
 
 The limit uses threadpoolctl (the BLAS thread control of scikit-learn's maintainers); where
 it finds no OpenBLAS, nothing is limited.
@@ -23,7 +24,7 @@ from typing import Any
 __all__ = ["SMALL_DENSE", "dense_threads"]
 
 #: Dense problems with fewer rows than this run OpenBLAS on one thread.
-SMALL_DENSE = 1500
+SMALL_DENSE = 4096
 
 
 @lru_cache(maxsize=1)
