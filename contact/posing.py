@@ -98,9 +98,7 @@ def _triple(a: NDArray, b: NDArray, c: NDArray) -> NDArray[np.float64]:
 
 def tet_volumes(points: ArrayLike, tets: ArrayLike) -> NDArray[np.float64]:
     """Signed volumes of tetrahedra (positive for VTK's orientation), shape (M,)."""
-    x = np.asarray(points, dtype=np.float64)[np.asarray(tets)]
-    e = x[:, 1:] - x[:, :1]
-    return np.einsum("ij,ij->i", np.cross(e[:, 0], e[:, 1]), e[:, 2]) / 6.0
+    return _triple(*_edges(points, tets)) / 6.0
 
 
 def tet_quality(points: ArrayLike, tets: ArrayLike) -> NDArray[np.float64]:
@@ -144,6 +142,58 @@ def _cofactor(f: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.moveaxis(c, -1, 0)
 
 
+def _rotation_svd(
+    f: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """``f = u diag(s) vt`` with ``u`` and ``vt`` rotations (the last ``s`` signed)."""
+    u, s, vt = np.linalg.svd(f)
+    du = np.linalg.det(u) < 0.0
+    dv = np.linalg.det(vt) < 0.0
+    u[du, :, 2] *= -1.0
+    vt[dv, 2, :] *= -1.0
+    s[du != dv, 2] *= -1.0
+    return u, s, vt
+
+
+def _isotropic_basis(f: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The eigenvectors (m, 9, 9 columns) of an isotropic energy's Hessian in ``vec F``.
+
+    With ``F = U S V^T`` (rotations ``U``, ``V``), the Hessian in ``F`` of an energy of
+    ``|F|^2`` and ``det F`` has the six eigenvectors ``U T V^T`` with ``T`` the twists
+    ``(e_a e_b^T - e_b e_a^T) / sqrt 2`` and flips ``(e_a e_b^T + e_b e_a^T) / sqrt 2``,
+    and keeps the span of the three scalings ``U e_a e_a^T V^T`` (Smith, de Goes and
+    Kim 2019, "Analytic eigensystems for isotropic distortion energies"): the columns
+    are the scalings, then a twist and a flip per pair. Row-major ``vec``.
+    """
+    u, _, vt = _rotation_svd(f)
+    p = (np.transpose(u, (0, 2, 1))[:, :, None, :, None] * vt[:, None, :, None, :]).reshape(
+        len(f), 3, 3, 9
+    )
+    cols = [p[:, a, a] for a in range(3)]
+    for a, b in ((1, 2), (0, 2), (0, 1)):
+        cols.append(np.sqrt(0.5) * (p[:, a, b] - p[:, b, a]))
+        cols.append(np.sqrt(0.5) * (p[:, a, b] + p[:, b, a]))
+    return np.stack(cols, axis=2)
+
+
+def _project_isotropic(
+    hf: NDArray[np.float64], f: NDArray[np.float64], floor: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Project the Hessians ``hf`` (m, 9, 9) of an isotropic energy at ``f`` on PSD.
+
+    Every eigenvalue below ``floor`` (m,) is raised to it. The eigenvectors are
+    :func:`_isotropic_basis`'s: an SVD of ``F`` and a 3 x 3 eigenproblem (the scalings)
+    instead of a 9 x 9 one, a third of its time; the same matrices to round-off.
+    """
+    q = _isotropic_basis(f)
+    m = np.transpose(q, (0, 2, 1)) @ hf @ q  # block diagonal: 3 x 3, then diagonal
+    w3, e3 = np.linalg.eigh(m[:, :3, :3])
+    w = np.concatenate([w3, np.diagonal(m, axis1=1, axis2=2)[:, 3:]], axis=1)
+    w = np.maximum(w, floor[:, None])
+    q[:, :, :3] = q[:, :, :3] @ e3
+    return (q * w[:, None, :]) @ np.transpose(q, (0, 2, 1))
+
+
 def _regularised(j: NDArray[np.float64], d2: float) -> tuple[NDArray, NDArray]:
     """``sqrt(j^2 + 4 d2)`` and Escobar's ``h = (j + sqrt(j^2 + 4 d2)) / 2`` of ``j``.
 
@@ -161,6 +211,43 @@ def _density(
 ) -> NDArray[np.float64]:
     """The energy density: ``|F|^2 h^(-2/3) / 3 + kappa (h + 1/h) / 2`` (``h23 = h^(-2/3)``)."""
     return nf * h23 / 3.0 + 0.5 * kappa * (h + 1.0 / h)
+
+
+def _block_pattern(
+    lt: NDArray[np.int64], nodes: int
+) -> tuple[NDArray[np.bool_], NDArray[np.int64], NDArray[np.int64], NDArray[np.int64], NDArray]:
+    """The CSR pattern of the (3 ``nodes``)-square matrix assembled from 12 x 12 blocks.
+
+    ``lt`` (m, 4): each tetrahedron's nodes numbered among the unknowns' (-1 held).
+    Found on the node pairs (16 a tetrahedron) and spread to their 3 x 3 blocks, a
+    ninth of the sort of the entries themselves. Returns ``keep`` (the element
+    matrices' entries, ``(m, 12, 12)`` raveled, that touch two unknowns), ``slot`` (the
+    data index of each kept entry), ``indptr`` and ``indices`` (columns sorted in every
+    row) and ``diag`` (the data indices of every node's diagonal 3 x 3 block, node by
+    node, row-major).
+    """
+    m = len(lt)
+    both = (lt[:, :, None] >= 0) & (lt[:, None, :] >= 0)  # (m, 4, 4)
+    key = (lt[:, :, None] * nodes + lt[:, None, :])[both]
+    pairs, pslot = np.unique(key, return_inverse=True)
+    brow, bcol = pairs // nodes, pairs % nodes
+    bptr = np.searchsorted(brow, np.arange(nodes + 1))
+    width = 3 * np.diff(bptr)  # entries in each of the block row's three rows
+    ij = np.arange(3)
+    # entry (pair p of block row r, i, j) lies at 9 bptr[r] + i width[r] + 3 (p - bptr[r]) + j
+    base = 9 * bptr[brow] + 3 * (np.arange(len(pairs)) - bptr[brow])
+    at = base[:, None, None] + ij[:, None] * width[brow][:, None, None] + ij
+    slot = np.zeros((m, 4, 4, 3, 3), dtype=np.int64)
+    slot[both] = at[pslot]
+    keep = np.broadcast_to(both[:, :, None, :, None], (m, 4, 3, 4, 3))
+    slot = np.transpose(slot, (0, 1, 3, 2, 4))[keep]
+    indptr = np.empty(3 * nodes + 1, dtype=np.int64)
+    indptr[:-1] = (9 * bptr[:-1, None] + ij * width[:, None]).ravel()
+    indptr[-1] = 9 * len(pairs)
+    indices = np.empty(at.size, dtype=np.int64)
+    indices[at.ravel()] = np.broadcast_to((3 * bcol)[:, None, None] + ij, at.shape).ravel()
+    own = np.flatnonzero(brow == bcol)
+    return keep.ravel(), slot, indptr, indices, at[own].ravel()
 
 
 def _solve(
@@ -319,24 +406,39 @@ class FleshRelaxer:
     ) -> tuple[float, NDArray[np.float64]]:
         """Energy of the tetrahedra ``cells`` (default all) and its gradient, shape (N, 3)."""
         cells = np.arange(len(self.tets)) if cells is None else cells
-        e, g, _ = self._terms(x, cells, self.delta, hessian=False)
+        e, g, _ = self._terms(x, self._gather(cells), self.delta, hessian=False)
         grad = np.zeros_like(x)
         t = self.tets[cells]
         for k in range(3):
             grad[:, k] = np.bincount(t.ravel(), g[..., k].ravel(), minlength=len(x))
         return float(e.sum()), grad
 
-    def _energy(self, x: NDArray[np.float64], cells: NDArray[np.int64], delta: float) -> float:
-        """The energy of the tetrahedra ``cells`` alone (the line search's)."""
-        f = np.transpose(x[self.tets[cells]], (0, 2, 1)) @ self._dmat[cells]
-        j = np.einsum("ij,ij->i", f[:, :, 0], np.cross(f[:, :, 1], f[:, :, 2]))
+    def _gather(self, cells: NDArray[np.int64]) -> dict[str, NDArray]:
+        """The per-tetrahedron data of ``cells``, taken once for a patch's Newton steps."""
+        return {
+            "cells": cells,
+            "tets": self.tets[cells],
+            "vol": self._vol[cells],
+            "dmat": self._dmat[cells],
+            "dmt": np.ascontiguousarray(np.transpose(self._dmat[cells], (0, 2, 1))),
+            "ddt": self._ddt[cells],
+        }
+
+    def _energy(self, x: NDArray[np.float64], patch: dict[str, NDArray], delta: float) -> float:
+        """The energy of a patch's tetrahedra alone (the line search's); see :meth:`_gather`."""
+        f = np.transpose(x[patch["tets"]], (0, 2, 1)) @ patch["dmat"]
+        j = _triple(f[:, :, 0], f[:, :, 1], f[:, :, 2])
         _, h = _regularised(j, delta * delta)
         nf = np.einsum("mij,mij->m", f, f)
-        return float(self._vol[cells] @ _density(nf, h ** (-2.0 / 3.0), h, self.kappa))
+        return float(patch["vol"] @ _density(nf, h ** (-2.0 / 3.0), h, self.kappa))
 
-    def _terms(self, x, cells, delta, hessian=True):
-        """Energy per tetrahedron, gradient per node (m, 4, 3) and Hessian (m, 12, 12)."""
-        tets, vol, dmat = self.tets[cells], self._vol[cells], self._dmat[cells]
+    def _terms(self, x, patch, delta, hessian=True):
+        """Energy per tetrahedron, gradient per node (m, 4, 3) and Hessian (m, 12, 12).
+
+        ``patch``: the tetrahedra's data (:meth:`_gather`).
+        """
+        tets, vol, dmat = patch["tets"], patch["vol"], patch["dmat"]
+        cells = patch["cells"]
         f = np.transpose(x[tets], (0, 2, 1)) @ dmat
         cof = _cofactor(f)
         j = np.einsum("ij,ij->i", f[:, :, 0], cof[:, :, 0])
@@ -350,7 +452,7 @@ class FleshRelaxer:
         wj = -(2.0 / 9.0) * nf * h23 / h + 0.5 * k * (1.0 - 1.0 / (h * h))  # dW/dh
         c = wj * h1  # dW/dJ
         pk = (2.0 / 3.0) * h23[:, None, None] * f + c[:, None, None] * cof  # dW/dF
-        grad = vol[:, None, None] * np.transpose(pk @ np.transpose(dmat, (0, 2, 1)), (0, 2, 1))
+        grad = vol[:, None, None] * np.transpose(pk @ patch["dmt"], (0, 2, 1))
         if not hessian:
             return e, grad, None
         a = (2.0 / 3.0) * h23
@@ -360,15 +462,14 @@ class FleshRelaxer:
         # a fair tetrahedron: the convex part of the energy's Hessian in F, the
         # distortion's a |dF|^2 and the volume's curvature along cof F (the rest is
         # indefinite): a (D D^T) x I3 + max(cj, 0) u u^T with u = d J / d x (written for
-        # every tetrahedron, then replaced on the others)
-        hk = np.zeros((m, 4, 3, 4, 3))
-        ddt = self._ddt[cells] * a[:, None, None]
+        # every tetrahedron, then replaced on the others), times the rest volume
+        u = np.transpose(cof @ patch["dmt"], (0, 2, 1)).reshape(m, 12)
+        u *= np.sqrt(vol * np.maximum(cj, 0.0))[:, None]
+        hk = u[:, :, None] * u[:, None, :]
+        ddt = patch["ddt"] * (vol * a)[:, None, None]
+        blocks = hk.reshape(m, 4, 3, 4, 3)
         for i in range(3):
-            hk[:, :, i, :, i] = ddt
-        hk = hk.reshape(m, 12, 12)
-        u = np.transpose(cof @ np.transpose(dmat, (0, 2, 1)), (0, 2, 1)).reshape(m, 12)
-        u *= np.sqrt(np.maximum(cj, 0.0))[:, None]
-        hk += u[:, :, None] * u[:, None, :]
+            blocks[:, :, i, :, i] += ddt
         # a degenerate or inverted one: the exact Hessian in F projected on its positive
         # eigenvalues
         bad = j <= _EXACT_J
@@ -380,12 +481,9 @@ class FleshRelaxer:
             hf += cj[bad, None, None] * gv[:, :, None] * gv[:, None, :]
             hf += c[bad, None, None] * (fv @ _HDET.T).reshape(-1, 9, 9)
             hf += a[bad, None, None] * np.eye(9)
-            w, v = np.linalg.eigh(hf)
-            w = np.maximum(w, 1e-8 * a[bad, None])
-            hf = (v * w[:, None, :]) @ np.transpose(v, (0, 2, 1))
+            hf = _project_isotropic(hf, f[bad], 1e-8 * a[bad]) * vol[bad, None, None]
             bm = self._bmat[cells[bad]]
             hk[bad] = np.transpose(bm, (0, 2, 1)) @ hf @ bm
-        hk *= vol[:, None, None]
         return e, grad, hk
 
     def relax(self, x: ArrayLike) -> tuple[NDArray[np.float64], int]:
@@ -448,10 +546,13 @@ class FleshRelaxer:
             moved[free] = True
             self.stats["passes"] += 1
             before = x[free].copy()
-            self._minimise(x, free)
-            self._requality(q, x, free)
+            if k == 0:
+                left = self._first_pass(x, free, bad, q)
+            else:
+                self._minimise(x, free)
+                self._requality(q, x, free)
+                left = int((q <= 0.0).sum())
             bad = self.degraded(x, q)
-            left = int((q[bad] <= 0.0).sum())
             if left > inverted:  # worse than before the pass: undo it
                 x[free] = before
                 self._requality(q, x, free)
@@ -464,6 +565,89 @@ class FleshRelaxer:
             self._restart(x, moved, q)
         self._polish(x, moved, q)
         return x, int(moved.sum()), q
+
+    def _first_pass(
+        self,
+        x: NDArray[np.float64],
+        free: NDArray[np.int64],
+        bad: NDArray[np.int64],
+        q: NDArray[np.float64],
+    ) -> int:
+        """The first pass: Newton's method from the better of two starts (in place).
+
+        The mapping's positions, or the harmonic fill (:meth:`_fill`) of the free nodes
+        of the degraded tetrahedra ``bad`` and one ring around them, where the mapping
+        folds the flesh. Each connected part of the patch ``free`` (see
+        :meth:`_minimise`) starts from the one of lower energy; should Newton's method
+        leave a tetrahedron of the part inverted, it is run again from the other start
+        and the better result kept (fewer inverted, then the better worst quality).
+        Measured on the fine hand's wrist at three quarters of its limits: from the
+        mapping's fold (536 inverted tetrahedra) 27 Newton steps, from its fill (320
+        inverted, a third of the energy) 4. ``q``: the qualities at ``x``, kept up to
+        date. Returns the tetrahedra left inverted.
+        """
+        start = x[free].copy()
+        core = self._ring(np.unique(self.tets[bad]), 1)
+        self._fill(x, core[~self.fixed[core]])
+        filled = x[free].copy()
+        for part in self._parts(free):
+            at = np.searchsorted(free, part)
+            patch = self._gather(self._cells(part))
+            starts = [filled[at], start[at]]
+            energies = []
+            for y in starts:
+                x[part] = y
+                energies.append(self._energy(x, patch, self.delta))
+            if energies[1] < energies[0]:
+                starts.reverse()
+            best = None
+            for y in starts:
+                x[part] = y
+                self._newton(x, part)
+                qp = tet_quality(x, patch["tets"])
+                key = (int((qp <= 0.0).sum()), -float(qp.min()))
+                if best is None or key < best[0]:
+                    best = (key, x[part].copy())
+                if key[0] == 0:
+                    break
+            x[part] = best[1]
+        self._requality(q, x, free)
+        return int((q <= 0.0).sum())
+
+    def _fill(self, x: NDArray[np.float64], nodes: NDArray[np.int64]) -> None:
+        """Move free ``nodes`` to the harmonic extension of the displacement around them.
+
+        The displacement ``u = x - rest`` of ``nodes`` minimises the Dirichlet energy
+        ``sum V |grad u|^2`` of the tetrahedra around them (linear, on the rest shape),
+        every other node held: ``K_ff u_f = -K_fb u_b``. A smooth start where the mapping
+        folds the flesh: it has no folds of its own on a moderate rotation (it shrinks a
+        deep one's volumes rather than turning them over). In place.
+        """
+        from scipy.sparse.linalg import splu
+
+        if len(nodes) == 0:
+            return
+        cells = self._cells(nodes)
+        tets = self.tets[cells]
+        k = self._ddt[cells] * self._vol[cells, None, None]  # the P1 stiffness, (m, 4, 4)
+        local = np.full(len(x), -1, dtype=np.int64)
+        local[nodes] = np.arange(len(nodes))
+        lt = local[tets]
+        u = np.where((lt < 0)[..., None], x[tets] - self.rest[tets], 0.0)
+        rhs_e = -k @ u  # (m, 4, 3): what the held nodes push on each node
+        at = lt >= 0
+        rhs = np.stack(
+            [np.bincount(lt[at], rhs_e[..., c][at], minlength=len(nodes)) for c in range(3)], 1
+        )
+        pair = at[:, :, None] & at[:, None, :]
+        rows = np.broadcast_to(lt[:, :, None], k.shape)[pair]
+        cols = np.broadcast_to(lt[:, None, :], k.shape)[pair]
+        kff = csr_matrix((k[pair], (rows, cols)), shape=(len(nodes), len(nodes)))
+        try:
+            uf = splu(kff.tocsc()).solve(rhs)
+        except RuntimeError:  # a part held by no node (singular): leave it
+            return
+        x[nodes] = self.rest[nodes] + uf
 
     def _polish(
         self, x: NDArray[np.float64], moved: NDArray[np.bool_], q: NDArray[np.float64]
@@ -747,33 +931,34 @@ class FleshRelaxer:
         that converges early (a finger's joint) does not ride along while a deeper one
         (the wrist) takes its Newton steps and line searches.
         """
+        for part in self._parts(free):
+            self._newton(x, part)
+
+    def _parts(self, free: NDArray[np.int64]) -> list[NDArray[np.int64]]:
+        """The connected parts of the nodes ``free`` (joined by a tetrahedron), sorted."""
         from scipy.sparse.csgraph import connected_components
 
         a = self._n2t[free]
         _, label = connected_components(a @ a.T, directed=False)
         order = np.argsort(label, kind="stable")
         split = np.flatnonzero(np.diff(label[order])) + 1
-        for part in np.split(free[order], split):
-            self._newton(x, np.sort(part))
+        return [np.sort(part) for part in np.split(free[order], split)]
 
     def _newton(self, x: NDArray[np.float64], free: NDArray[np.int64]) -> None:
         """Newton's method on the tetrahedra around one connected part ``free``."""
         cells = self._cells(free)
-        tets = self.tets[cells]
+        patch = self._gather(cells)
+        tets = patch["tets"]
         local = np.full(len(x), -1, dtype=np.int64)
         local[free] = np.arange(len(free))
         dof = (3 * local[tets][:, :, None] + np.arange(3)).reshape(-1, 12)
         dof[np.repeat(local[tets] < 0, 3, axis=1)] = -1
-        rows = np.broadcast_to(dof[:, :, None], (len(cells), 12, 12)).ravel()
-        cols = np.broadcast_to(dof[:, None, :], (len(cells), 12, 12)).ravel()
-        keep = (rows >= 0) & (cols >= 0)
         n = 3 * len(free)
         # the sparsity pattern once: entry k of the element matrices adds to slot[k]
-        pattern, slot = np.unique(rows[keep] * n + cols[keep], return_inverse=True)
-        indptr = np.searchsorted(pattern // n, np.arange(n + 1))
-        indices = pattern % n
-        # the 3 x 3 diagonal block of every free node, row by row (the preconditioner's)
-        diag = np.flatnonzero(pattern // n // 3 == indices // 3)
+        keep, slot, indptr, indices, diag = _block_pattern(local[tets], len(free))
+        # the entries on a held node go to a slot past the end, dropped
+        slot_all = np.full(keep.shape, len(indices), dtype=np.int64)
+        slot_all[keep] = slot
         gslot = dof.ravel()
         gkeep = gslot >= 0
         floor = RELAX_STOP * np.minimum(RELAX_QUALITY, 0.5 * self.rest_quality[cells])
@@ -785,11 +970,11 @@ class FleshRelaxer:
         for _ in range(self.maxiter):
             # Escobar's regularisation follows the most inverted tetrahedron: a gentle
             # barrier on a tangled patch, a steep one (delta -> 0) once it is untangled
-            jmin = float(np.min(tet_volumes(x, tets) / self._vol[cells]))
+            jmin = float(np.min(tet_volumes(x, tets) / patch["vol"]))
             delta = np.sqrt(eps * (eps - jmin)) if jmin < eps else eps * 0.1
-            e, g, hk = self._terms(x, cells, delta)
+            e, g, hk = self._terms(x, patch, delta)
             grad = np.bincount(gslot[gkeep], g.reshape(-1)[gkeep], minlength=n)
-            data = np.bincount(slot, hk.ravel()[keep], minlength=len(pattern))
+            data = np.bincount(slot_all, hk.ravel(), minlength=len(indices) + 1)[:-1]
             a = csr_matrix((data, indices, indptr), shape=(n, n))
             step = -_solve(a, grad, data[diag].reshape(-1, 3, 3))
             decrease = float(grad @ step)
@@ -799,7 +984,7 @@ class FleshRelaxer:
             t = 1.0
             while True:
                 x[free] = x0 + t * step.reshape(-1, 3)
-                e1 = self._energy(x, cells, delta)
+                e1 = self._energy(x, patch, delta)
                 if e1 <= e0 + 1e-4 * t * decrease or t < 1e-6:
                     break
                 t *= 0.5

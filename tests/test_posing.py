@@ -5,16 +5,21 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.sparse import csr_matrix
 
 import fem
 from contact.errors import PoseError, RigError
 from contact.hand import load_hand
 from contact.keyframes import Keyframes
 from contact.posing import (
+    _HDET,
     RELAX_UNTANGLE,
     FleshRelaxer,
     HandPoser,
     Pose,
+    _block_pattern,
+    _cofactor,
+    _project_isotropic,
     pose_hand,
     tet_quality,
     tet_volumes,
@@ -215,3 +220,50 @@ def test_sequence_to_png_frames_and_gif(hand, poser, tmp_path):
     assert np.abs(first - last).mean() > 0.5  # the finger moved
     gif = Image.open(files[2])
     assert gif.n_frames == 2
+
+
+def test_isotropic_projection_is_the_eigen_projection():
+    """The SVD eigenvectors project an isotropic Hessian as a 9 x 9 eigensolver does."""
+    rng = np.random.default_rng(0)
+    f = rng.normal(size=(400, 3, 3))
+    f[:5] = np.eye(3)  # repeated singular values
+    f[5:10] = np.diag([1.0, 1.0, -0.5])  # inverted
+    f[10:15] = np.diag([1e-9, 1.0, 2.0])  # flat
+    f[15:20] = -np.eye(3)
+    fv, gv = f.reshape(-1, 9), _cofactor(f).reshape(-1, 9)
+    a, cb = rng.uniform(0.1, 1.0, 400), rng.normal(size=400)
+    cj, c = rng.uniform(0.0, 5.0, 400), rng.normal(size=400)
+    hf = (2.0 * cb)[:, None, None] * fv[:, :, None] * gv[:, None, :]
+    hf += hf.transpose(0, 2, 1)
+    hf += cj[:, None, None] * gv[:, :, None] * gv[:, None, :]
+    hf += c[:, None, None] * (fv @ _HDET.T).reshape(-1, 9, 9)
+    hf += a[:, None, None] * np.eye(9)
+    w, v = np.linalg.eigh(hf)
+    assert (w < 0.0).any(axis=1).sum() > 100  # most need projecting
+    expect = (v * np.maximum(w, 1e-8 * a[:, None])[:, None, :]) @ v.transpose(0, 2, 1)
+    got = _project_isotropic(hf, f, 1e-8 * a)
+    np.testing.assert_allclose(got, expect, rtol=0.0, atol=1e-11 * np.abs(expect).max())
+
+
+def test_block_pattern_is_the_pattern_of_the_assembled_matrix():
+    """The node-pair pattern, spread to 3 x 3 blocks, assembles what the entries' sort does."""
+    rng = np.random.default_rng(1)
+    nodes = 40
+    lt = rng.integers(-1, nodes, (200, 4))
+    keep, slot, indptr, indices, diag = _block_pattern(lt, nodes)
+    dof = (3 * lt[:, :, None] + np.arange(3)).reshape(-1, 12)
+    dof[np.repeat(lt < 0, 3, axis=1)] = -1
+    rows = np.broadcast_to(dof[:, :, None], (200, 12, 12)).ravel()
+    cols = np.broadcast_to(dof[:, None, :], (200, 12, 12)).ravel()
+    assert np.array_equal(keep, (rows >= 0) & (cols >= 0))
+    values = rng.normal(size=keep.sum())
+    data = np.bincount(slot, values, minlength=len(indices))
+    got = csr_matrix((data, indices, indptr), shape=(3 * nodes, 3 * nodes))
+    assert got.has_sorted_indices
+    n = 3 * nodes
+    expect = csr_matrix((values, (rows[keep], cols[keep])), shape=(n, n)).toarray()
+    np.testing.assert_allclose(got.toarray(), expect, rtol=0.0, atol=1e-12)
+    blocks = data[diag].reshape(-1, 3, 3)
+    present = np.unique(lt[lt >= 0])
+    for b, node in zip(blocks, present, strict=True):
+        np.testing.assert_allclose(b, expect[3 * node : 3 * node + 3, 3 * node : 3 * node + 3])
