@@ -302,8 +302,10 @@ def _write_report(
             + ", ".join(f"{k} {v:.4f}" for k, v in rest.items())
             + ". A frame: the JLD mapping, then the relaxation of the free nodes around "
             "the tetrahedra it degrades (contact.posing.FleshRelaxer, a projected Newton "
-            "method on an untangling energy); the time grows with the degraded region "
-            "(deep flexions); it stops when its energy stalls, and a tetrahedron it leaves "
+            "method on an untangling energy; each connected part of the patch starts from "
+            "the lower-energy of the mapping and the harmonic fill of its folds); the time "
+            "grows with the degraded region (deep flexions); it stops when its energy "
+            "stalls, and a tetrahedron it leaves "
             "inverted restarts its neighbourhood from a nearby bone's rigid motion "
             "(untangled on its volumes first). The joints are open (no "
             "tetrahedron tied to both bones of a joint), every joint keeps its bones at "
