@@ -267,3 +267,43 @@ def test_block_pattern_is_the_pattern_of_the_assembled_matrix():
     present = np.unique(lt[lt >= 0])
     for b, node in zip(blocks, present, strict=True):
         np.testing.assert_allclose(b, expect[3 * node : 3 * node + 3, 3 * node : 3 * node + 3])
+
+
+def test_harmonic_fill_reproduces_an_affine_displacement(hand, poser):
+    """The fill's P1 harmonic extension is exact on an affine field: scrambled inner free
+    nodes among nodes displaced by ``u = A x + b`` go back onto it (on the skin the fill
+    has a free surface: no such identity there)."""
+    relaxer = poser.relaxer
+    rest = hand.flesh.points
+    a = np.array([[0.10, -0.20, 0.05], [0.15, 0.02, -0.10], [-0.05, 0.10, 0.20]])
+    b = np.array([0.01, -0.02, 0.005])
+    x = rest + rest @ a.T + b
+    inner = np.ones(len(rest), dtype=bool)
+    inner[hand.flesh.boundary.nodes] = False
+    inner &= hand.bone_id < 0
+    core = relaxer._ring(np.flatnonzero(inner)[:1], 2)
+    core = core[inner[core]]
+    assert len(core) > 10
+    exact = x[core].copy()
+    x[core] += np.random.default_rng(3).normal(scale=0.003, size=(len(core), 3))
+    relaxer._fill(x, core)
+    np.testing.assert_allclose(x[core], exact, rtol=0.0, atol=1e-12)
+
+
+def test_first_pass_rings_bound_the_moved_nodes(hand):
+    """The first pass moves the free nodes within ``pass_rings`` rings of the degraded
+    tetrahedra: one ring moves fewer than two, and both leave every tetrahedron positive."""
+    jld = HandPoser(hand, relax=False).pose({"index_mcp": 90.0, "index_pip": 90.0}, check=False)
+    moved = []
+    for rings in (1, 2):
+        relaxer = FleshRelaxer(
+            hand.flesh.points,
+            hand.flesh.cells["tetra"],
+            hand.bone_id >= 0,
+            bone_id=hand.bone_id,
+            pass_rings=rings,
+        )
+        _, n, q = relaxer.relax_quality(jld.points)
+        assert q.min() > 0.0 and relaxer.stats["passes"] == 1
+        moved.append(n)
+    assert 0 < moved[0] < moved[1]
