@@ -15,6 +15,7 @@ interpenetration (the ball deforms, the flesh is pushed back).
 from __future__ import annotations
 
 import math
+import weakref
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -90,6 +91,36 @@ def surface_distance(surface: pyvista.PolyData) -> Distance:
     return dist
 
 
+#: Per live hand (by id, with a weak reference to tell a new hand at a reused id): its
+#: fingertip nodes and the one-point JLD maps of the searched points, kept across calls
+#: (a grasp run searches the same points frame after frame).
+_CACHE: dict[int, tuple[weakref.ref, dict]] = {}
+
+
+def _hand_cache(hand: Hand) -> dict:
+    """The cache of a hand (see :data:`_CACHE`), emptied of dead hands' entries."""
+    entry = _CACHE.get(id(hand))
+    if entry is None or entry[0]() is not hand:
+        for key in [k for k, (ref, _) in _CACHE.items() if ref() is None]:
+            del _CACHE[key]
+        entry = (weakref.ref(hand), {})
+        _CACHE[id(hand)] = entry
+    return entry[1]
+
+
+def _point_map(hand: Hand, node: int) -> JLDMap:
+    """The JLD map of one flesh node, localised against the whole flesh (cached)."""
+    cache = _hand_cache(hand)
+    if ("map", node) not in cache:
+        cache["map", node] = JLDMap(
+            hand.skeleton,
+            hand.flesh.points[[node]],
+            hand.bone_id[[node]],
+            reference=(hand.flesh.points, hand.bone_id),
+        )
+    return cache["map", node]
+
+
 def fingertip_node(hand: Hand, finger: str) -> int:
     """Flesh node at the tip of a named finger.
 
@@ -107,6 +138,14 @@ def fingertip_node(hand: Hand, finger: str) -> int:
     """
     if finger not in FINGERTIPS:
         raise RigError(f"unknown fingertip {finger!r}; expected one of {', '.join(FINGERTIPS)}")
+    cache = _hand_cache(hand)
+    if ("tip", finger) not in cache:
+        cache["tip", finger] = _fingertip_node(hand, finger)
+    return cache["tip", finger]
+
+
+def _fingertip_node(hand: Hand, finger: str) -> int:
+    """:func:`fingertip_node` without the cache."""
     sk = hand.skeleton
     bone = sk.bones[FINGERTIPS[finger]]
     nodes = hand.flesh.boundary.nodes
@@ -242,12 +281,7 @@ def auto_flex(
             f"[{limits[joint][0]:g}, {limits[joint][1]:g}] and increase"
         )
     base = {k: float(v) for k, v in (angles or {}).items()}
-    jld = JLDMap(
-        sk,
-        hand.flesh.points[[node]],
-        hand.bone_id[[node]],
-        reference=(hand.flesh.points, hand.bone_id),
-    )
+    jld = _point_map(hand, node)
     target = -float(press)
     history: list[tuple[float, float]] = []
 

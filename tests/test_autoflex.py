@@ -99,3 +99,16 @@ def test_fingertip_is_the_farthest_boundary_node_nearest_its_bone(hand):
         mine = nearest == sk.bone_names.index(bone.name)
         along = np.where(mine, (x - bone.start) @ ((bone.end - bone.start) / bone.length), -np.inf)
         assert fingertip_node(hand, finger) == nodes[np.argmax(along)], finger
+
+
+def test_search_maps_are_kept_per_hand(hand, ball):
+    """A second search of the same point reuses its localisation and finds the same angle."""
+    from contact.autoflex import _point_map
+
+    base, tip, centre = ball
+    first = auto_flex(hand, "index", sphere_distance(centre, R), "index_mcp", base)
+    assert _point_map(hand, tip) is _point_map(hand, tip)
+    again = auto_flex(hand, "index", sphere_distance(centre, R), "index_mcp", base)
+    assert again.angle == first.angle and again.history == first.history
+    other = load_hand("coarse")  # another hand: its own maps
+    assert _point_map(other, tip) is not _point_map(hand, tip)
