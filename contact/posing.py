@@ -188,7 +188,8 @@ def _project_isotropic(
 
     Every eigenvalue below ``floor`` (m,) is raised to it. The eigenvectors are
     :func:`_isotropic_basis`'s: an SVD of ``F`` and a 3 x 3 eigenproblem (the scalings)
-    instead of a 9 x 9 one, a third of its time; the same matrices to round-off.
+    instead of a 9 x 9 one, under half its time on the fine hand's patches; the same
+    matrices to round-off.
     """
     q = _isotropic_basis(f)
     m = np.transpose(q, (0, 2, 1)) @ hf @ q  # block diagonal: 3 x 3, then diagonal
