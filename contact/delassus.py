@@ -237,18 +237,18 @@ class ContactSpace:
         """
         with fem.dense_threads(g0.size):  # small dense work: one BLAS thread
             sys_ = self.system(e, g0)
-            try:
-                res = solve_lcp(
-                    sys_.w,
-                    sys_.g,
-                    sys_.rhs,
-                    sys_.c,
-                    tol=tol,
-                    start=start,
-                    load_scale=sys_.load_scale,
-                )
-            except fem.LoadError:
-                raise ContactError(_unheld(list(sys_.free))) from None
+        try:  # solve_lcp limits its own threads
+            res = solve_lcp(
+                sys_.w,
+                sys_.g,
+                sys_.rhs,
+                sys_.c,
+                tol=tol,
+                start=start,
+                load_scale=sys_.load_scale,
+            )
+        except fem.LoadError:
+            raise ContactError(_unheld(list(sys_.free))) from None
         return res, self.states(e, res.lam, res.a)
 
 

@@ -53,10 +53,16 @@ def rotation_matrices(axes: ArrayLike, degrees: ArrayLike) -> NDArray[np.float64
     shape = np.broadcast_shapes(a.shape[:-1], t.shape)
     a = np.broadcast_to(a, (*shape, 3))
     t = np.broadcast_to(t, shape)[..., None, None]
-    k = np.zeros((*shape, 3, 3))
+    k = _skew(a)
+    return np.eye(3) + np.sin(t) * k + (1.0 - np.cos(t)) * (k @ k)
+
+
+def _skew(a: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Cross-product matrices ``(..., 3, 3)`` of vectors ``(..., 3)``: ``k v = a x v``."""
+    k = np.zeros((*a.shape[:-1], 3, 3))
     k[..., 0, 1], k[..., 0, 2], k[..., 1, 2] = -a[..., 2], a[..., 1], -a[..., 0]
     k -= np.swapaxes(k, -1, -2)
-    return np.eye(3) + np.sin(t) * k + (1.0 - np.cos(t)) * (k @ k)
+    return k
 
 
 def _cross_matrices(axes: NDArray[np.float64]) -> dict[str, NDArray[np.float64]]:
@@ -64,9 +70,7 @@ def _cross_matrices(axes: NDArray[np.float64]) -> dict[str, NDArray[np.float64]]
 
     ``I + sin(t) k + (1 - cos(t)) kk`` is then :func:`rotation_matrices` term by term.
     """
-    k = np.zeros((len(axes), 3, 3))
-    k[:, 0, 1], k[:, 0, 2], k[:, 1, 2] = -axes[:, 2], axes[:, 1], -axes[:, 0]
-    k -= np.swapaxes(k, -1, -2)
+    k = _skew(axes)
     return {"k": k, "kk": k @ k}
 
 
