@@ -99,7 +99,9 @@ class ContactSpace:
         """``C f``: the body's displacement under loads ``f`` (a free body: rigid part removed)."""
         s = body.solver
         u = np.zeros(s.n)
-        u[s.free] = s.apply_inverse(f[s.free])
+        ff = f[s.free]
+        if ff.any():  # no loads (a body held by its supports, or floating): no solve
+            u[s.free] = s.apply_inverse(ff)
         return u
 
     def own_response(self, body: ElasticBody) -> NDArray[np.float64]:
@@ -117,7 +119,7 @@ class ContactSpace:
             u = u + s.modes @ rigid
         reactions = np.zeros(s.n)
         if s.prescribed.size:
-            reactions[s.prescribed] = s.k[s.prescribed] @ u - f[s.prescribed]
+            reactions[s.prescribed] = s.prescribed_rows @ u - f[s.prescribed]
         return BodyState(u, reactions, np.asarray(rigid, dtype=np.float64))
 
     def system(self, e: dict[str, sp.csr_matrix], g0: NDArray[np.float64]) -> ContactSystem:

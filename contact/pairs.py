@@ -34,6 +34,8 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
+import fem
+
 from .body import ElasticBody
 from .geometry import Plane
 from .surfacequery import (
@@ -211,7 +213,7 @@ def measure(
     tri = master.contact_triangles
     xm = master.mesh.points + u[master.name]
     used = master.contact_nodes
-    lo, hi = xm[used].min(axis=0), xm[used].max(axis=0)
+    lo, hi = fem.bounding_box(xm[used])
     closed = master.contact_closed
     # distance to the master's bounding box: a lower bound of that to the surface, and
     # a node off the box is outside a closed surface
@@ -267,7 +269,8 @@ def _closest_near(surface: TriangleSurface, q: NDArray[np.float64], reach: float
     whose closest point on the patch is further than that is searched again on the whole
     surface.
     """
-    lo, hi = q.min(axis=0) - reach, q.max(axis=0) + reach
+    lo, hi = fem.bounding_box(q)
+    lo, hi = lo - reach, hi + reach
     x = surface.points
     tri = surface.triangles
     # per node: below (-1), within (0) or above (+1) the box, along each axis; a triangle

@@ -233,13 +233,13 @@ def _flat(
     """Which triangles (doubled areas ``dbl``) are degenerate (see :func:`degenerate_triangles`)."""
     if not len(triangles):
         return np.zeros(0, dtype=bool)
-    x = points[triangles]
-    corners = x.reshape(-1, 3)
-    diag2 = float(np.sum((corners.max(axis=0) - corners.min(axis=0)) ** 2))
+    # the box of every point holds every triangle's box: a bound on their edges
+    lo, hi = fem.bounding_box(points)
+    diag2 = float(np.sum((hi - lo) ** 2))
     bad = dbl <= tol * diag2
     suspect = np.flatnonzero(bad)
     if suspect.size:
-        y = x[suspect]
+        y = points[triangles[suspect]]
         edge2 = np.max([((y[:, i] - y[:, (i + 1) % 3]) ** 2).sum(axis=1) for i in range(3)], 0)
         bad[suspect] = dbl[suspect] <= tol * edge2
     return bad

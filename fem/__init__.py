@@ -35,7 +35,7 @@ from .loads import (
     pressure_load,
 )
 from .material import LinearElastic, elasticity_matrix, lame
-from .mesh import BoundaryFaces, Mesh
+from .mesh import BoundaryFaces, Mesh, bounding_box
 from .meshing import check_surface, sphere_surface, tetrahedralize
 from .pvmesh import from_pyvista, to_pyvista
 from .statics import StaticSolution, StaticSolver, check_balance, rigid_body_modes
@@ -66,6 +66,7 @@ __all__ = [
     "assemble_stiffness",
     "available_backends",
     "ball_mesh",
+    "bounding_box",
     "box_mesh",
     "cell_stress",
     "check_balance",

@@ -272,6 +272,13 @@ class StaticSolver:
         return np.sort(self.free[inner[self._marks]])
 
     @property
+    def prescribed_rows(self) -> sp.csr_matrix:
+        """Rows ``K21 | K22`` of the prescribed DOFs (kept): their reactions are ``K_p u - f_p``."""
+        if self.free_body:
+            return sp.csr_matrix((0, self.n))
+        return self._k_pres
+
+    @property
     def factored(self) -> bool:
         """Whether the stiffness is factored (a lazy solver is not until first used)."""
         return self._factorization is not None

@@ -179,3 +179,12 @@ def test_boundary_is_kept_for_a_connectivity_moved_elsewhere():
     renumbered = fem.Mesh(m.points, other)
     assert renumbered.boundary is not m.boundary
     assert renumbered.boundary.n_faces == m.boundary.n_faces
+
+
+def test_bounding_box_matches_min_max_and_refuses_no_points():
+    x = np.random.default_rng(3).normal(size=(1000, 3))
+    lo, hi = fem.bounding_box(x)
+    np.testing.assert_array_equal(lo, x.min(axis=0))
+    np.testing.assert_array_equal(hi, x.max(axis=0))
+    with pytest.raises(ValueError, match="shape"):
+        fem.bounding_box(np.zeros((0, 3)))
