@@ -206,8 +206,8 @@ def degenerate_triangles(
 
     A triangle is degenerate where its doubled area is at most ``tol`` times its longest
     edge squared. The edges are measured only for the few triangles that could be: those
-    whose doubled area is below ``tol`` times the square of the diagonal of their bounding
-    box (no edge is longer).
+    whose doubled area is below ``tol`` times the square of the diagonal of the points'
+    bounding box (no edge is longer).
 
     Returns
     -------
