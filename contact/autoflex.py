@@ -15,7 +15,6 @@ interpenetration (the ball deforms, the flesh is pushed back).
 from __future__ import annotations
 
 import math
-import weakref
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -91,26 +90,9 @@ def surface_distance(surface: pyvista.PolyData) -> Distance:
     return dist
 
 
-#: Per live hand (by id, with a weak reference to tell a new hand at a reused id): its
-#: fingertip nodes and the one-point JLD maps of the searched points, kept across calls
-#: (a grasp run searches the same points frame after frame).
-_CACHE: dict[int, tuple[weakref.ref, dict]] = {}
-
-
-def _hand_cache(hand: Hand) -> dict:
-    """The cache of a hand (see :data:`_CACHE`), emptied of dead hands' entries."""
-    entry = _CACHE.get(id(hand))
-    if entry is None or entry[0]() is not hand:
-        for key in [k for k, (ref, _) in _CACHE.items() if ref() is None]:
-            del _CACHE[key]
-        entry = (weakref.ref(hand), {})
-        _CACHE[id(hand)] = entry
-    return entry[1]
-
-
 def _point_map(hand: Hand, node: int) -> JLDMap:
-    """The JLD map of one flesh node, localised against the whole flesh (cached)."""
-    cache = _hand_cache(hand)
+    """The JLD map of one flesh node, localised against the whole flesh (kept with the hand)."""
+    cache = hand.derived
     if ("map", node) not in cache:
         cache["map", node] = JLDMap(
             hand.skeleton,
@@ -138,7 +120,7 @@ def fingertip_node(hand: Hand, finger: str) -> int:
     """
     if finger not in FINGERTIPS:
         raise RigError(f"unknown fingertip {finger!r}; expected one of {', '.join(FINGERTIPS)}")
-    cache = _hand_cache(hand)
+    cache = hand.derived
     if ("tip", finger) not in cache:
         cache["tip", finger] = _fingertip_node(hand, finger)
     return cache["tip", finger]

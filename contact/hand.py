@@ -87,6 +87,15 @@ class Hand:
     resolution: str
 
     @cached_property
+    def derived(self) -> dict:
+        """Work derived from the hand and kept as long as it lives (its poser, fingertip nodes).
+
+        Filled by :func:`contact.pose_hand` and :mod:`contact.autoflex`: a grasp run poses
+        and searches the same hand frame after frame.
+        """
+        return {}
+
+    @cached_property
     def prescribed_nodes(self) -> NDArray[np.int64]:
         """Indices of the flesh nodes fixed to a bone (they move rigidly with it)."""
         return np.flatnonzero(self.bone_id >= 0)

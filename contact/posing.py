@@ -28,7 +28,6 @@ mapping keeps every tetrahedron fair, nothing moves (the rest pose is exact).
 from __future__ import annotations
 
 import logging
-import weakref
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from functools import cached_property
@@ -1232,19 +1231,13 @@ class HandPoser:
         )
 
 
-_POSERS: dict[int, tuple[weakref.ref, HandPoser]] = {}
-
-
 def pose_hand(hand: Hand, angles: Mapping[str, float] | None = None, check: bool = True) -> Pose:
     """Pose a hand for joint angles (degrees); see :meth:`HandPoser.pose`.
 
-    The hand's :class:`HandPoser` is built on the first call and kept while the hand
-    lives, so posing frame after frame costs only the mapping.
+    The hand's :class:`HandPoser` is built on the first call and kept with the hand
+    (:attr:`Hand.derived`), so posing frame after frame costs only the mapping.
     """
-    entry = _POSERS.get(id(hand))
-    if entry is None or entry[0]() is not hand:
-        for key in [k for k, (ref, _) in _POSERS.items() if ref() is None]:
-            del _POSERS[key]
-        entry = (weakref.ref(hand), HandPoser(hand))
-        _POSERS[id(hand)] = entry
-    return entry[1].pose(angles, check=check)
+    poser = hand.derived.get("poser")
+    if poser is None:
+        poser = hand.derived["poser"] = HandPoser(hand)
+    return poser.pose(angles, check=check)
