@@ -16,17 +16,25 @@ The diagnostic columns say why poses would invert without the relaxer: the poses
 the JLD mapping alone inverts a tetrahedron, the joints whose areas hold those tetrahedra
 (the zone joint of most of their nodes) and what kind they are: on the skin (a node on
 the outer skin), on a bone (a node fixed to a bone, none on the skin) or inner.
+
+The random poses above are independent. An animation poses a keyframed sequence, frame
+after frame: the sequence study (``posing_sequences.csv``) animates from rest through
+random keys at the same fractions of the limits (Kochanek-Bartels, one key a second,
+:data:`SEQ_FPS` frames a second) and poses every frame twice: on its own (cold), and
+warm-started from the previous frame (``HandPoser.pose(..., start=previous)``).
 """
 
 from __future__ import annotations
 
 import time
+import warnings
 from collections import Counter
 from pathlib import Path
 
 import numpy as np
 
 from contact.hand import load_hand
+from contact.keyframes import Keyframes
 from contact.posing import HandPoser, tet_quality, tet_volumes
 
 from ._common import (
@@ -40,7 +48,7 @@ from ._common import (
     write_markdown,
 )
 
-__all__ = ["FRACTIONS", "GOAL_S", "run", "sample_range"]
+__all__ = ["FRACTIONS", "GOAL_S", "SEQ_FPS", "run", "sample_range", "sample_sequences"]
 
 #: Goal: seconds to pose one frame of the fine hand.
 GOAL_S = 0.2
@@ -50,6 +58,12 @@ FRACTIONS = {False: (0.25, 0.5, 0.75, 1.0), True: (0.25, 0.5)}
 N_RANDOM = {False: 40, True: 4}
 #: Resolutions: full run and ``--quick``.
 RESOLUTIONS = {False: ("coarse", "fine"), True: ("coarse",)}
+#: Frames a second of the keyframed sequences (keys one second apart).
+SEQ_FPS = 24
+#: Random keys after the rest pose in each sequence, and sequences per fraction: full run
+#: and ``--quick``.
+SEQ_KEYS = 2
+N_SEQUENCES = {False: 2, True: 1}
 
 CSV_KEYS = [
     "resolution",
@@ -95,6 +109,37 @@ LEFT_COLUMNS = (
     Column("bone_nodes", "its nodes on a bone"),
     Column("quality", "its quality", ".4f"),
     Column("inverted", "tets inverted"),
+)
+SEQ_KEYS_CSV = [
+    "resolution",
+    "fraction",
+    "sequences",
+    "frames",
+    "cold_mean_s",
+    "cold_max_s",
+    "warm_mean_s",
+    "warm_max_s",
+    "cold_steps",
+    "warm_steps",
+    "cold_min_quality",
+    "warm_min_quality",
+    "cold_inverted",
+    "warm_inverted",
+]
+SEQ_COLUMNS = (
+    Column("resolution", "mesh"),
+    Column("fraction", "fraction of limits", ".2f"),
+    Column("frames", "frames"),
+    Column("cold_mean_s", "cold: mean (s)", ".3f"),
+    Column("cold_max_s", "cold: max (s)", ".3f"),
+    Column("warm_mean_s", "warm: mean (s)", ".3f"),
+    Column("warm_max_s", "warm: max (s)", ".3f"),
+    Column("cold_steps", "Newton steps cold"),
+    Column("warm_steps", "Newton steps warm"),
+    Column("cold_min_quality", "min quality cold", ".4f"),
+    Column("warm_min_quality", "min quality warm", ".4f"),
+    Column("cold_inverted", "frames inverting a tet, cold"),
+    Column("warm_inverted", "frames inverting a tet, warm"),
 )
 TIME_COLUMNS = (
     Column("resolution", "mesh"),
@@ -203,6 +248,64 @@ def sample_range(poser: HandPoser, fraction: float, n_random: int, seed: int = 0
     }
 
 
+def sample_sequences(poser: HandPoser, fraction: float, n_sequences: int, seed: int = 0) -> dict:
+    """Pose keyframed sequences frame by frame, cold and warm-started.
+
+    Each sequence starts at rest and goes through :data:`SEQ_KEYS` random keys (every
+    angle uniform within ``fraction`` of its limits), one a second, sampled at
+    :data:`SEQ_FPS` frames a second. Every frame is posed on its own (cold) and from the
+    previous frame's pose (warm, :meth:`HandPoser.pose` with ``start``).
+
+    Returns
+    -------
+    dict
+        ``frames``; per mode (``cold_``, ``warm_``): ``mean_s``, ``max_s``, ``steps``
+        (the relaxer's Newton steps, all frames), ``min_quality`` and ``inverted`` (frames
+        left with an inverted tetrahedron).
+    """
+    hand = poser.hand
+    limits = hand.skeleton.limits
+    rng = np.random.default_rng(seed)
+    out: dict = {"sequences": n_sequences, "frames": 0}
+    stats = {
+        m: {"times": [], "steps": 0, "quality": np.inf, "inverted": 0} for m in ("cold", "warm")
+    }
+    for _ in range(n_sequences):
+        keys = [{"time": 0.0, "angles": {}}] + [
+            {
+                "time": float(k + 1),
+                "angles": {
+                    n: float(rng.uniform(fraction * lo, fraction * hi))
+                    for n, (lo, hi) in limits.items()
+                },
+            }
+            for k in range(SEQ_KEYS)
+        ]
+        frames = Keyframes(hand.skeleton, keys)
+        with warnings.catch_warnings():  # the spline's overshoots, clamped
+            warnings.simplefilter("ignore", RuntimeWarning)
+            poses = [frames.pose(t) for t in np.arange(SEQ_KEYS * SEQ_FPS + 1) / SEQ_FPS]
+        out["frames"] += len(poses)
+        for mode, st in stats.items():
+            previous = None
+            for angles in poses:
+                t0 = time.perf_counter()
+                pose = poser.pose(angles, check=False, start=previous if mode == "warm" else None)
+                st["times"].append(time.perf_counter() - t0)
+                assert poser.relaxer is not None
+                st["steps"] += poser.relaxer.stats["iterations"]
+                st["quality"] = min(st["quality"], pose.min_quality)
+                st["inverted"] += bool(len(pose.inverted))
+                previous = pose
+    for mode, st in stats.items():
+        out[f"{mode}_mean_s"] = float(np.mean(st["times"]))
+        out[f"{mode}_max_s"] = float(np.max(st["times"]))
+        out[f"{mode}_steps"] = st["steps"]
+        out[f"{mode}_min_quality"] = float(st["quality"])
+        out[f"{mode}_inverted"] = st["inverted"]
+    return out
+
+
 def _describe(angles: dict[str, float], top: int = 3) -> str:
     """A pose in a few words: its largest angles (degrees)."""
     big = sorted(angles.items(), key=lambda kv: -abs(kv[1]))[:top]
@@ -229,6 +332,7 @@ def run(quick: bool = False, out: str | Path | None = None) -> list[dict]:
     info = machine_info()
     rows: list[dict] = []
     timing: list[dict] = []
+    sequences: list[dict] = []
     for res in RESOLUTIONS[quick]:
         hand = load_hand(res)
         t0 = time.perf_counter()
@@ -268,6 +372,14 @@ def run(quick: bool = False, out: str | Path | None = None) -> list[dict]:
                 f"poses invert a tet, min quality {row['min_quality']}",
                 flush=True,
             )
+            seq = {"resolution": res, "fraction": f}
+            seq.update(sample_sequences(poser, f, N_SEQUENCES[quick]))
+            sequences.append(seq)
+            print(
+                f"[posing] {res} {f:.2f} of limits, {seq['frames']} frames of sequences: "
+                f"cold {seq['cold_mean_s']:.3f} s a frame, warm {seq['warm_mean_s']:.3f} s",
+                flush=True,
+            )
     info["load average at end"] = load_average()
     write_csv(folder / "posing.csv", [{**r} for r in rows], CSV_KEYS)
     left = [
@@ -276,13 +388,14 @@ def run(quick: bool = False, out: str | Path | None = None) -> list[dict]:
         for u in r["unmended"]
     ]
     write_csv(folder / "posing_inverted.csv", left, [c.key for c in LEFT_COLUMNS])
-    _write_report(folder, info, rows, timing, quick, left)
+    write_csv(folder / "posing_sequences.csv", sequences, SEQ_KEYS_CSV)
+    _write_report(folder, info, rows, timing, quick, left, sequences)
     _plot(folder / "posing.png", rows)
     return rows
 
 
 def _write_report(
-    folder: Path, info: dict, rows: list, timing: list, quick: bool, left: list
+    folder: Path, info: dict, rows: list, timing: list, quick: bool, left: list, sequences: list
 ) -> None:
     rest = {r["resolution"]: r["rest_quality"] for r in rows}
     sections = [
@@ -312,6 +425,18 @@ def _write_report(
             "least 1 mm apart over its range (contact.bones.joint_clearance) and, on a "
             "mesh built or reopened since contact.jointgap.split_joint_gaps (the fine "
             "one), no free node is tied by its edges to two bones.",
+        ),
+        (
+            "Keyframed sequences: cold and warm-started frames",
+            markdown_table(sequences, SEQ_COLUMNS)
+            + f"\n\nSequences from rest through {SEQ_KEYS} random keys (every angle within "
+            f"the fraction of its limits, one key a second, Kochanek-Bartels), "
+            f"{SEQ_FPS} frames a second. Cold: each frame posed on its own, as above. "
+            "Warm: from the previous frame's pose (HandPoser.pose with start): its "
+            "relaxer correction added to the new mapping is one more start of each "
+            "degraded part, taken as it is where every tetrahedron is above the stop "
+            "floor, else tried in order of energy with the mapping and its fill (and "
+            "followed by the next start if it leaves a tetrahedron below half the floor).",
         ),
         (
             "Why poses would invert: the JLD mapping alone",

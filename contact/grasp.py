@@ -36,6 +36,7 @@ from .errors import ContactError
 from .geometry import Plane
 from .iteration import solve_frame
 from .pairs import ContactPair
+from .posing import Pose
 from .results import FrameResult, IterationRecord
 from .scene import Scene
 
@@ -73,6 +74,7 @@ class GraspRun:
     _ball_key: bytes = field(default=b"", init=False)
     _hand_body: ElasticBody | None = field(default=None, init=False)
     _hand_key: bytes = field(default=b"", init=False)
+    _pose: Pose | None = field(default=None, init=False)
 
     def __post_init__(self) -> None:
         sc = self.scene
@@ -169,7 +171,8 @@ class GraspRun:
         key = np.array(sorted(angles.items()), dtype=object).tobytes()
         if self._hand_body is not None and key == self._hand_key:
             return self._hand_body
-        pose = self.poser.pose(angles)
+        # the previous frame's pose warm-starts the flesh's relaxation (HandPoser.pose)
+        pose = self.poser.pose(angles, start=self._pose)
         mesh = pose.mesh()
         prescribed = fem.node_dofs(self.hand.prescribed_nodes)  # type: ignore[union-attr]
         self._hand_body = ElasticBody(
@@ -190,7 +193,7 @@ class GraspRun:
         from .surfacequery import TriangleSurface
 
         hand = self.hand
-        assert hand is not None
+        assert hand is not None and self._pose is not None
         x = ball.mesh.points[ball.contact_nodes]
         for name, surf in hand.bones.items():
             tf = self._pose.transforms[name]
@@ -224,6 +227,7 @@ class GraspRun:
             bodies.append(hand)
             pairs += [ContactPair(ball, hand), ContactPair(hand, ball)]
             extra["angles"] = angles
+            assert self._pose is not None
             extra["min_tet_quality"] = float(self._pose.min_quality)
         planes = [Plane(p.point, p.normal, motion=p.offset(t), name=p.name) for p in sc.planes]
         pairs = [ContactPair(ball, p) for p in planes] + pairs

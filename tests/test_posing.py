@@ -307,3 +307,54 @@ def test_first_pass_rings_bound_the_moved_nodes(hand):
         assert q.min() > 0.0 and relaxer.stats["passes"] == 1
         moved.append(n)
     assert 0 < moved[0] < moved[1]
+
+
+def test_warm_start_keeps_the_mapping_where_it_is_fair(hand, poser):
+    """A warm start only offers a start to the parts the mapping degrades: from a deep
+    pose, the rest pose is still the rest mesh exactly and a mild pose the mapping itself;
+    a deep pose keeps its bones where the cold one puts them, with every tet positive."""
+    deep = {"wrist": 60.0, "index_mcp": 85.0, "index_pip": 95.0, "middle_mcp": 85.0}
+    cold = poser.pose(deep)
+    assert cold.relaxed > 0 and cold.correction is not None
+    mapped = hand.flesh.points + poser.flesh_map.displacement(cold.angles)
+    np.testing.assert_array_equal(cold.correction, cold.points - mapped)
+    rest = poser.pose({}, start=cold)
+    assert np.array_equal(rest.points, hand.flesh.points) and rest.relaxed == 0
+    mild = {"index_mcp": 10.0}
+    assert np.array_equal(poser.pose(mild, start=cold).points, poser.pose(mild).points)
+    near = {k: 0.97 * v for k, v in deep.items()}
+    warm = poser.pose(near, start=cold)
+    fixed = hand.bone_id >= 0
+    np.testing.assert_array_equal(warm.points[fixed], poser.pose(near).points[fixed])
+    assert warm.min_quality > 0.0
+    # the correction is what the relaxer moved: zero on every node it left alone
+    moved = np.flatnonzero(np.abs(warm.correction).sum(axis=1) > 0)
+    assert 0 < len(moved) <= warm.relaxed
+    assert not fixed[moved].any()
+
+
+def _sequence_steps(poser, poses, warm):
+    steps, worst, previous = 0, np.inf, None
+    for angles in poses:
+        pose = poser.pose(angles, start=previous if warm else None)
+        steps += poser.relaxer.stats["iterations"]
+        worst = min(worst, pose.min_quality)
+        previous = pose
+    return steps, worst
+
+
+def test_warm_started_sequence_takes_fewer_newton_steps_on_the_fine_hand():
+    """Frames of a keyframed sequence (24 a second) near three quarters of the limits:
+    started from the previous frame, the relaxer takes fewer Newton steps for as good a
+    worst tetrahedron (measured: 49 against 101 steps, 0.0104 both)."""
+    fine = HandPoser(load_hand("fine"))
+    lim = fine.hand.skeleton.limits
+    rng = np.random.default_rng(5)
+    a0 = {n: rng.uniform(0.75 * lo, 0.75 * hi) for n, (lo, hi) in lim.items()}
+    a1 = {n: rng.uniform(0.75 * lo, 0.75 * hi) for n, (lo, hi) in lim.items()}
+    poses = [{n: a0[n] + s * (a1[n] - a0[n]) / 24.0 for n in lim} for s in range(5)]
+    cold, q_cold = _sequence_steps(fine, poses, warm=False)
+    warm, q_warm = _sequence_steps(fine, poses, warm=True)
+    print(f"5 frames: cold {cold} Newton steps (min quality {q_cold:.4f}), warm {warm}")
+    assert warm < 0.7 * cold
+    assert q_warm >= 0.9 * q_cold > 0.0
