@@ -250,14 +250,15 @@ def test_block_pattern_is_the_pattern_of_the_assembled_matrix():
     rng = np.random.default_rng(1)
     nodes = 40
     lt = rng.integers(-1, nodes, (200, 4))
-    keep, slot, indptr, indices, diag = _block_pattern(lt, nodes)
+    slot, indptr, indices, diag = _block_pattern(lt, nodes)
     dof = (3 * lt[:, :, None] + np.arange(3)).reshape(-1, 12)
     dof[np.repeat(lt < 0, 3, axis=1)] = -1
     rows = np.broadcast_to(dof[:, :, None], (200, 12, 12)).ravel()
     cols = np.broadcast_to(dof[:, None, :], (200, 12, 12)).ravel()
-    assert np.array_equal(keep, (rows >= 0) & (cols >= 0))
+    keep = (rows >= 0) & (cols >= 0)
+    assert np.array_equal(slot == len(indices), ~keep)  # entries on a held node: dropped
     values = rng.normal(size=keep.sum())
-    data = np.bincount(slot, values, minlength=len(indices))
+    data = np.bincount(slot[keep], values, minlength=len(indices))
     got = csr_matrix((data, indices, indptr), shape=(3 * nodes, 3 * nodes))
     assert got.has_sorted_indices
     n = 3 * nodes
