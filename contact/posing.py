@@ -1247,6 +1247,8 @@ class HandPoser:
             An unknown angle, or one outside its limits.
         PoseError
             With ``check``, naming the joint and the first inverted element.
+        ValueError
+            A ``start`` pose of another mesh.
         """
         sk = self.hand.skeleton
         full = {k: float(v) for k, v in sk.check_angles(angles).items()}
@@ -1257,6 +1259,11 @@ class HandPoser:
         if self.relaxer is not None:
             warm = None
             if start is not None and start.correction is not None:
+                if start.correction.shape != points.shape:
+                    raise ValueError(
+                        f"start: a pose of another mesh ({len(start.correction)} nodes; "
+                        f"this hand's flesh has {len(points)})"
+                    )
                 warm = points + start.correction
             mapped = points
             points, moved, q = self.relaxer.relax_quality(points, warm)

@@ -3,6 +3,8 @@ range of motion, inversion errors that name the joint and the element, and pictu
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from scipy.sparse import csr_matrix
@@ -332,6 +334,9 @@ def test_warm_start_keeps_the_mapping_where_it_is_fair(hand, poser):
     moved = np.flatnonzero(np.abs(warm.correction).sum(axis=1) > 0)
     assert 0 < len(moved) <= warm.relaxed
     assert not fixed[moved].any()
+    other = dataclasses.replace(cold, correction=cold.correction[:-1])
+    with pytest.raises(ValueError, match=r"another mesh \(\d+ nodes; this hand's flesh has"):
+        poser.pose(near, start=other)
 
 
 def _sequence_steps(poser, poses, warm):
