@@ -248,9 +248,7 @@ def _density(
     return nf * h23 / 3.0 + 0.5 * kappa * (h + 1.0 / h)
 
 
-def _block_pattern(
-    lt: NDArray[np.int64], nodes: int
-) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+def _block_pattern(lt: NDArray[np.int64], nodes: int) -> tuple[NDArray[np.int64], ...]:
     """The CSR pattern of the (3 ``nodes``)-square matrix assembled from 12 x 12 blocks.
 
     ``lt`` (m, 4): each tetrahedron's nodes numbered among the unknowns' (-1 held).
@@ -259,9 +257,13 @@ def _block_pattern(
     every entry of the element matrices, ``(m, 12, 12)`` raveled; ``len(indices)``, one
     past the end, for an entry on a held node, to be dropped), ``indptr`` and
     ``indices`` (columns sorted in every row) and ``diag`` (the data indices of every
-    node's diagonal 3 x 3 block, node by node, row-major). The slots are gathered from
-    the pairs' blocks in one pass, without boolean masks over the entries (on a
-    6,000-tetrahedron patch of the fine hand, 9 against 19 ms with the masks).
+    node's diagonal 3 x 3 block, node by node, row-major). Then, for element matrices
+    of the form ``L x I3`` (``L`` (m, 4, 4), the same for the three components):
+    ``pair_slot`` (the node pair of every entry of ``L``, ``(m, 4, 4)`` raveled; one
+    past the last pair for a held node) and ``pair_diag`` (pairs, 3), the data indices
+    of each pair's block diagonal. The slots are gathered from the pairs' blocks in one
+    pass, without boolean masks over the entries (on a 6,000-tetrahedron patch of the
+    fine hand, 9 against 19 ms with the masks).
     """
     m = len(lt)
     both = (lt[:, :, None] >= 0) & (lt[:, None, :] >= 0)  # (m, 4, 4)
@@ -286,7 +288,8 @@ def _block_pattern(
     indices = np.empty(at.size, dtype=np.int64)
     indices[at.ravel()] = np.broadcast_to((3 * bcol)[:, None, None] + ij, at.shape).ravel()
     own = np.flatnonzero(brow == bcol)
-    return slot, indptr, indices, at[own].ravel()
+    pair_slot = (pslot - held) % (len(pairs) + 1)  # the held entries' -1: one past the end
+    return slot, indptr, indices, at[own].ravel(), pair_slot.ravel(), at[:, ij, ij]
 
 
 def _solve(
@@ -485,7 +488,7 @@ class FleshRelaxer:
     ) -> tuple[float, NDArray[np.float64]]:
         """Energy of the tetrahedra ``cells`` (default all) and its gradient, shape (N, 3)."""
         cells = np.arange(len(self.tets)) if cells is None else cells
-        e, g, _ = self._terms(x, self._gather(cells), self.delta, hessian=False)
+        e, g, _, _ = self._terms(x, self._gather(cells), self.delta, hessian=False)
         grad = np.zeros_like(x)
         t = self.tets[cells]
         for k in range(3):
@@ -512,9 +515,13 @@ class FleshRelaxer:
         return float(patch["vol"] @ _density(nf, h ** (-2.0 / 3.0), h, self.kappa))
 
     def _terms(self, x, patch, delta, hessian=True):
-        """Energy per tetrahedron, gradient per node (m, 4, 3) and Hessian (m, 12, 12).
+        """Energy per tetrahedron, gradient per node (m, 4, 3) and Hessian.
 
-        ``patch``: the tetrahedra's data (:meth:`_gather`).
+        The Hessian in two parts, their sum: ``hk`` (m, 12, 12) and ``lap`` (m, 4, 4),
+        whose ``lap x I3`` (the distortion's ``a |dF|^2`` on a fair tetrahedron, the same
+        for the three components) is assembled on node pairs (:func:`_block_pattern`),
+        a third of the work of adding it into ``hk``'s diagonal blocks. ``patch``: the
+        tetrahedra's data (:meth:`_gather`). Without ``hessian``: ``hk`` and ``lap`` None.
         """
         tets, vol, dmat = patch["tets"], patch["vol"], patch["dmat"]
         cells = patch["cells"]
@@ -533,7 +540,7 @@ class FleshRelaxer:
         pk = (2.0 / 3.0) * h23[:, None, None] * f + c[:, None, None] * cof  # dW/dF
         grad = vol[:, None, None] * np.transpose(pk @ patch["dmt"], (0, 2, 1))
         if not hessian:
-            return e, grad, None
+            return e, grad, None, None
         a = (2.0 / 3.0) * h23
         wjj = (10.0 / 27.0) * nf * h23 / (h * h) + k / h**3  # d^2 W / dh^2
         cj = wjj * h1 * h1 + wj * 2.0 * d2 / r**3  # d^2 W / dJ^2
@@ -545,13 +552,12 @@ class FleshRelaxer:
         u = np.transpose(cof @ patch["dmt"], (0, 2, 1)).reshape(m, 12)
         u *= np.sqrt(vol * np.maximum(cj, 0.0))[:, None]
         hk = u[:, :, None] * u[:, None, :]
-        ddt = patch["ddt"] * (vol * a)[:, None, None]
-        blocks = hk.reshape(m, 4, 3, 4, 3)
-        for i in range(3):
-            blocks[:, :, i, :, i] += ddt
         # a degenerate or inverted one: the exact Hessian in F projected on its positive
-        # eigenvalues
+        # eigenvalues (in hk, with its share of a |dF|^2: no Laplacian part)
         bad = j <= _EXACT_J
+        lap = vol * a
+        lap[bad] = 0.0
+        lap = patch["ddt"] * lap[:, None, None]
         if bad.any():
             cb = -(2.0 / 9.0) * h23[bad] / h[bad] * h1[bad]  # d^2 W / d(nf) dJ
             fv, gv = f[bad].reshape(-1, 9), cof[bad].reshape(-1, 9)
@@ -563,7 +569,7 @@ class FleshRelaxer:
             hf = _project_isotropic(hf, f[bad], 1e-8 * a[bad]) * vol[bad, None, None]
             bm = self._bmat[cells[bad]]
             hk[bad] = np.transpose(bm, (0, 2, 1)) @ hf @ bm
-        return e, grad, hk
+        return e, grad, hk, lap
 
     def relax(self, x: ArrayLike) -> tuple[NDArray[np.float64], int]:
         """Move the free nodes around the degraded tetrahedra of the posed points ``x``.
@@ -1065,7 +1071,10 @@ class FleshRelaxer:
         n = 3 * len(free)
         # the sparsity pattern once: entry k of the element matrices adds to slot[k]
         # (the entries on a held node go to a slot past the end, dropped)
-        slot_all, indptr, indices, diag = _block_pattern(local[tets], len(free))
+        slot_all, indptr, indices, diag, pair_slot, pair_diag = _block_pattern(
+            local[tets], len(free)
+        )
+        npairs = len(pair_diag)
         gslot = dof.ravel()
         gkeep = gslot >= 0
         eps = self.delta
@@ -1077,9 +1086,10 @@ class FleshRelaxer:
             # barrier on a tangled patch, a steep one (delta -> 0) once it is untangled
             jmin = float(np.min(tet_volumes(x, tets) / patch["vol"]))
             delta = np.sqrt(eps * (eps - jmin)) if jmin < eps else eps * 0.1
-            e, g, hk = self._terms(x, patch, delta)
+            e, g, hk, lap = self._terms(x, patch, delta)
             grad = np.bincount(gslot[gkeep], g.reshape(-1)[gkeep], minlength=n)
             data = np.bincount(slot_all, hk.ravel(), minlength=len(indices) + 1)[:-1]
+            data[pair_diag] += np.bincount(pair_slot, lap.ravel(), minlength=npairs + 1)[:-1, None]
             a = csr_matrix((data, indices, indptr), shape=(n, n))
             step = -_solve(a, grad, data[diag].reshape(-1, 3, 3))
             decrease = float(grad @ step)

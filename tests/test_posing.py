@@ -252,7 +252,7 @@ def test_block_pattern_is_the_pattern_of_the_assembled_matrix():
     rng = np.random.default_rng(1)
     nodes = 40
     lt = rng.integers(-1, nodes, (200, 4))
-    slot, indptr, indices, diag = _block_pattern(lt, nodes)
+    slot, indptr, indices, diag, pair_slot, pair_diag = _block_pattern(lt, nodes)
     dof = (3 * lt[:, :, None] + np.arange(3)).reshape(-1, 12)
     dof[np.repeat(lt < 0, 3, axis=1)] = -1
     rows = np.broadcast_to(dof[:, :, None], (200, 12, 12)).ravel()
@@ -270,6 +270,14 @@ def test_block_pattern_is_the_pattern_of_the_assembled_matrix():
     present = np.unique(lt[lt >= 0])
     for b, node in zip(blocks, present, strict=True):
         np.testing.assert_allclose(b, expect[3 * node : 3 * node + 3, 3 * node : 3 * node + 3])
+    # element matrices L x I3, assembled on the node pairs, as the 12 x 12 ones
+    lap = rng.normal(size=(200, 4, 4))
+    full = np.einsum("mab,ij->maibj", lap, np.eye(3)).reshape(-1)
+    data = np.bincount(slot, full, minlength=len(indices) + 1)[:-1]
+    pairs = np.bincount(pair_slot, lap.ravel(), minlength=len(pair_diag) + 1)[:-1]
+    on_pairs = np.zeros(len(indices))
+    on_pairs[pair_diag] += pairs[:, None]
+    np.testing.assert_allclose(on_pairs, data, rtol=0.0, atol=1e-12)
 
 
 def test_harmonic_fill_reproduces_an_affine_displacement(hand, poser):
