@@ -434,6 +434,8 @@ class FleshRelaxer:
         self._ddt = self._dmat @ np.transpose(self._dmat, (0, 2, 1))
         self._vol = np.linalg.det(dm) / 6.0
         self.rest_quality = tet_quality(x, self.tets)
+        # the stop floor of every tetrahedron (RELAX_STOP of its degraded threshold)
+        self._floor = RELAX_STOP * np.minimum(RELAX_QUALITY, 0.5 * self.rest_quality)
         self.kappa, self.delta = float(kappa), float(delta)
         self.rings, self.rounds, self.maxiter = int(rings), int(rounds), int(maxiter)
         self.pass_rings = int(pass_rings)
@@ -692,7 +694,7 @@ class FleshRelaxer:
         for part in self._parts(free):
             at = np.searchsorted(free, part)
             cells = self._cells(part)
-            floor = RELAX_STOP * np.minimum(RELAX_QUALITY, 0.5 * self.rest_quality[cells])
+            floor = self._floor[cells]
             patch = self._gather(cells)
             starts = [filled[at], start[at]]
             if warm is not None:
@@ -765,7 +767,7 @@ class FleshRelaxer:
         the same energy is dominated by them. Kept only if the patch's worst quality
         improves and nothing more is inverted. ``q``: the qualities at ``x``.
         """
-        floor = RELAX_STOP * np.minimum(RELAX_QUALITY, 0.5 * self.rest_quality)
+        floor = self._floor
         low = np.flatnonzero((q > 0.0) & (q < floor))
         if len(low) == 0:
             return
@@ -1059,7 +1061,7 @@ class FleshRelaxer:
         """
         cells = self._cells(free)
         tets = self.tets[cells]
-        floor = RELAX_STOP * np.minimum(RELAX_QUALITY, 0.5 * self.rest_quality[cells])
+        floor = self._floor[cells]
         q = tet_quality(x, tets)
         if (q > floor).all():
             return
