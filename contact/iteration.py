@@ -82,6 +82,19 @@ RELINEARISE = 8
 #: rest of the tolerance is for the linearisation's error, so that the nonlinear measure
 #: does not find the node inside and take it again.
 LCP_TOLERANCE = 0.5
+#: The first contact set of contact space also holds, open, the nodes outside a rigid
+#: plane within this many of their element sizes: a free body's first solve would
+#: otherwise slide it through a wall it nearly touches (a ball resting in a bowl whose
+#: walls touch it between nodes).
+NEAR = 0.5
+#: Updates in a frame whose solve slides a free body so far that contacts leave their
+#: facets, each caught by new contacts where it slid, before the frame stops as not held.
+SLIDES = 3
+#: A body that slid is held when the unit slide direction keeps at least this length
+#: in the span of the normals of the rows that push it.
+HELD_COS = 0.5
+#: Stride of a row's (pair, node) key: more nodes than any body has.
+_KEY_STRIDE = 1 << 40
 
 
 @dataclass(frozen=True)
@@ -198,6 +211,7 @@ class _Frame:
         self._surveys: dict[int, Survey] = {}
         self._force = 0.0
         self.broken = 0
+        self.broken_keys = np.zeros(0, dtype=np.int64)
         self.renewed: dict[int, dict[int, int]] = {}
         self.relinearised: dict[int, dict[int, int]] = {}
         self._loads = max(float(np.linalg.norm(b.loads)) for b in self.bodies)
@@ -268,21 +282,26 @@ class _Frame:
             b.solver.factor_time - before[b.name] for b in self.bodies
         )
 
+    def slides(self, states: dict[str, BodyState]) -> dict[str, NDArray[np.float64]]:
+        """Each free body's rigid translation in ``states`` (m)."""
+        out = {}
+        for b in self.bodies:
+            rigid = states[b.name].rigid
+            if b.solver.free_body and rigid.size:
+                out[b.name] = (b.solver.modes[:, :3] @ rigid[:3]).reshape(-1, 3)[0]
+        return out
+
     def slipping(self, states: dict[str, BodyState], broken: int) -> str:
         """The stop reason when contacts in the set have lost their masters.
 
         Frictionless contacts hold a free body only where their normals enclose it; where
         they do not (a ball pushed towards the open side of a hand), the linear solve
         slides it rigidly along the open direction until its linearised contacts
-        balance, so far that the contact nodes have left their facets. The frame then
-        stops: the body slips out.
+        balance, so far that the contact nodes have left their facets. Unless something
+        it slid into holds it (see :func:`_contact_space`), the frame stops: the body
+        slips out.
         """
-        moves = []
-        for b in self.bodies:
-            rigid = states[b.name].rigid
-            if b.solver.free_body and rigid.size:
-                move = (b.solver.modes[:, :3] @ rigid[:3]).reshape(-1, 3)[0]
-                moves.append((float(np.linalg.norm(move)), b.name, move))
+        moves = [(float(np.linalg.norm(m)), n, m) for n, m in self.slides(states).items()]
         how = ""
         if moves:
             dist, name, move = max(moves, key=lambda m: m[0])
@@ -292,6 +311,59 @@ class _Frame:
             f"not held: {how}{broken} contact(s) left their facets (frictionless contacts "
             "that do not enclose a body cannot hold it)"
         )
+
+    def pushed_out(
+        self, rows: ContactRows, lam: NDArray[np.float64], states: dict[str, BodyState]
+    ) -> str:
+        """The stop reason of a free body the contacts pushed off, or "" if none was.
+
+        A free body that moved rigidly and that no contact pushes at the end was pushed
+        out of contact: frictionless contacts that do not enclose it (fingers closing on
+        a ball with nothing behind it) push it away until they open. Any place further
+        along balances too, so the frame does not say where it is.
+        """
+        e = self.matrices(rows) if len(rows) else {}
+        for name, move in self.slides(states).items():
+            body = next(b for b in self.bodies if b.name == name)
+            dist = float(np.linalg.norm(move))
+            if dist <= self.settings.gap_tolerance * float(self.local[name].max()):
+                continue
+            eb = e.get(name)
+            if eb is not None and (lam > 0).any() and eb[lam > 0].nnz:
+                continue
+            d = move / dist
+            return (
+                f"not held: {body.name} pushed out of contact, {dist * 1e3:.3g} mm along "
+                f"[{d[0]:.2f}, {d[1]:.2f}, {d[2]:.2f}], and no contact holds it "
+                "(frictionless contacts hold a free body only where they enclose it)"
+            )
+        return ""
+
+    def holds(
+        self, rows: ContactRows, lam: NDArray[np.float64], moves: dict[str, NDArray[np.float64]]
+    ) -> bool:
+        """Whether the pushing rows hold every free body against its slide ``moves``.
+
+        A body that slid so far that contacts left their facets is held once the normals
+        of the rows that push it span the slide's direction: a wall or another finger
+        caught it. Otherwise it slid out of reach and the forces that remain (none, or
+        only those in other directions) do not say where it is.
+        """
+        e = self.matrices(rows) if len(rows) else {}
+        for name, move in moves.items():
+            body = next(b for b in self.bodies if b.name == name)
+            dist = float(np.linalg.norm(move))
+            if dist == 0.0:
+                continue
+            eb = e.get(name)
+            if eb is None or not (lam > 0).any():
+                return False
+            t = (eb[lam > 0] @ body.solver.modes[:, :3]) if eb.shape[0] else np.zeros((0, 3))
+            _, sv, vt = np.linalg.svd(t, full_matrices=False)
+            span = vt[sv > 1e-6 * sv.max()] if sv.size and sv.max() > 0 else np.zeros((0, 3))
+            if np.linalg.norm(span @ (move / dist)) < HELD_COS:
+                return False
+        return True
 
     def force_scale(self, lam: NDArray[np.float64]) -> float:
         """The frame's force scale: the largest contact force met so far, or the loads.
@@ -356,6 +428,7 @@ class _Frame:
         touching: bool,
         released: NDArray[np.bool_] | None = None,
         idle: NDArray[np.bool_] | None = None,
+        near: float = 0.0,
     ) -> tuple[ContactRows, int, float]:
         """The next contact set: rows released, penetrating nodes added, stale rows renewed.
 
@@ -373,6 +446,11 @@ class _Frame:
             Rows kept open at zero force (candidates of the unilateral solve): those whose
             node has moved half an element off its master, or out of reach, are dropped
             instead of counting as contacts that left their facets.
+        near : float
+            With ``touching``, also take the nodes outside a rigid plane within this many
+            of their element sizes (candidates the unilateral solve leaves open unless the
+            body closes on them: a free body's first solve cannot slide it through a wall
+            it nearly touches). A plane's row is exact wherever the node goes.
 
         Returns
         -------
@@ -384,6 +462,7 @@ class _Frame:
             Deepest penetration measured (m).
         """
         self.broken = 0
+        broken: list[NDArray[np.int64]] = []
         dropped = rows.select(released) if released is not None else ContactRows()
         if released is not None:
             rows = rows.select(~released)
@@ -408,10 +487,15 @@ class _Frame:
             # a contact whose node has moved away from its master by half an element (or
             # out of reach) no longer has a valid linearised row: the body slid off it
             far = active & (p.gap > 0.5 * self.local[pair.slave.name][p.nodes])
-            self.broken += int(far.sum()) + np.setdiff1d(rows.node[mine], p.nodes).size
+            gone = np.concatenate([p.nodes[far], np.setdiff1d(rows.node[mine], p.nodes)])
+            self.broken += gone.size
+            broken.append(gone + i * _KEY_STRIDE)
             fresh = ~active & ~np.isin(p.nodes, dropped.node[dropped.pair == i])
             depth = max(depth, float(np.max(-p.gap, initial=0.0)))
             hit = fresh & (_first(p.gap, tol) if touching else (p.gap < -tol))
+            if touching and near > 0.0 and pair.rigid:
+                local = self.local[pair.slave.name][p.nodes]
+                hit |= fresh & (p.gap >= -tol) & (p.gap < near * local)
             j = self.reverse[i]
             if j >= 0 and hit.any():
                 # node on node: a slave node whose closest point is a master vertex that
@@ -452,8 +536,20 @@ class _Frame:
             if hit.any():
                 rows = rows.extended(self.pairs, i, p.select(hit))
                 changed += int(hit.sum())
+        self.broken_keys = np.concatenate(broken) if broken else np.zeros(0, dtype=np.int64)
         self.timings["geometry"] += time.perf_counter() - t
         return rows, changed, depth
+
+    def without_broken(self, rows: ContactRows) -> ContactRows:
+        """``rows`` less those whose node the last :meth:`new_rows` found off its master.
+
+        Their linearisation no longer holds: the node left its facet (a free body slid
+        along the contacts that held it). A node that penetrates something at its new
+        place has its new row already; one that comes back gets a row when measured.
+        """
+        if not self.broken_keys.size or not len(rows):
+            return rows
+        return rows.select(~np.isin(rows.pair * _KEY_STRIDE + rows.node, self.broken_keys))
 
     def _left(
         self, rows: ContactRows, idle: NDArray[np.bool_], u: dict[str, NDArray]
@@ -713,13 +809,15 @@ def _contact_space(frame: _Frame) -> FrameResult:
     st = frame.settings
     space = ContactSpace(frame.bodies)
     u = {b.name: np.zeros((b.mesh.n_points, 3)) for b in frame.bodies}
-    rows, _, _ = frame.new_rows(ContactRows(), u, touching=True)
+    rows, _, _ = frame.new_rows(ContactRows(), u, touching=True, near=NEAR)
     history: list[IterationRecord] = []
     seen: set[bytes] = set()
     stop, converged = "iteration limit", False
     prev = np.zeros(sum(b.mesh.n_dofs for b in frame.bodies))
     solved, lam, states = rows, np.zeros(0), {}
     start: NDArray[np.float64] | None = None
+    slides = 0
+    slid: tuple[str, dict[str, NDArray[np.float64]]] | None = None
     for it in range(1, st.max_iterations + 1):
         key = _key(rows)
         if key in seen:
@@ -743,10 +841,18 @@ def _contact_space(frame: _Frame) -> FrameResult:
         prev = flat
         grown, added, depth = frame.new_rows(rows, u, False, idle=~closed)
         if frame.broken:
-            rec = _record(it, rows, 0, 0, change, depth, e, lam, frame, 1.0, 0.0, n_closed)
-            frame.record(history, rec)
-            stop = frame.slipping(states, frame.broken)
-            break
+            slides += 1
+            slid = slid or (frame.slipping(states, frame.broken), frame.slides(states))
+            if not added or slides > SLIDES:
+                # nothing the body slid into holds it (or it keeps sliding): it slips out
+                rec = _record(it, rows, 0, 0, change, depth, e, lam, frame, 1.0, 0.0, n_closed)
+                frame.record(history, rec)
+                stop = slid[0]
+                break
+            # it slid into something (a wall, another finger) that may hold it: the rows
+            # it left are dropped, those it now penetrates are solved with the others
+            log.debug("contact space: %d contacts left their facets", frame.broken)
+            grown = frame.without_broken(grown)
         supports = frame.supports(states)
         rec = _record(it, rows, added, opened, change, depth, e, lam, frame, 1.0, 0.0, n_closed)
         frame.record(history, _with_support(rec, supports))
@@ -764,6 +870,10 @@ def _contact_space(frame: _Frame) -> FrameResult:
             break
         if not added:
             converged, stop = True, "converged"
+            if slid is not None and not frame.holds(rows, lam, slid[1]):
+                converged, stop = False, slid[0]
+            elif out := frame.pushed_out(rows, lam, states):
+                converged, stop = False, out
             break
         start = _carried(rows, lam, grown)
         rows = grown
