@@ -93,6 +93,9 @@ SLIDES = 3
 #: A body that slid is held when the unit slide direction keeps at least this length
 #: in the span of the normals of the rows that push it.
 HELD_COS = 0.5
+#: A free body that moved rigidly by more than this many of its element sizes and that
+#: no contact pushes at the end was pushed out of contact (not held).
+PUSHED_OUT = 0.5
 #: Stride of a row's (pair, node) key: more nodes than any body has.
 _KEY_STRIDE = 1 << 40
 
@@ -317,17 +320,18 @@ class _Frame:
     ) -> str:
         """The stop reason of a free body the contacts pushed off, or "" if none was.
 
-        A free body that moved rigidly and that no contact pushes at the end was pushed
-        out of contact: frictionless contacts that do not enclose it (fingers closing on
-        a ball with nothing behind it) push it away until they open. Any place further
-        along balances too, so the frame does not say where it is.
+        A free body that moved rigidly by more than ``PUSHED_OUT`` of its element size
+        and that no contact pushes at the end was pushed out of contact: frictionless
+        contacts that do not enclose it (fingers closing on a ball with nothing behind
+        it) push it away until they open. Any place further along balances too, so the
+        frame does not say where it is.
         """
         e = self.matrices(rows) if len(rows) else {}
         for name, move in self.slides(states).items():
             body = next(b for b in self.bodies if b.name == name)
             dist = float(np.linalg.norm(move))
-            if dist <= self.settings.gap_tolerance * float(self.local[name].max()):
-                continue
+            if dist <= PUSHED_OUT * float(self.local[name].max()):
+                continue  # a nudge (a ball settling in a frictionless bowl)
             eb = e.get(name)
             if eb is not None and (lam > 0).any() and eb[lam > 0].nnz:
                 continue
