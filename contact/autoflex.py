@@ -3,7 +3,8 @@
 The seed's AUTO_F commands take a keyframe, a hand vertex, an object's facet and a joint,
 and find the flexion angle ``alpha`` with ``|DIST(alpha) - DIST| < epsilon`` by a
 dichotomous search instead of inverse kinematics. Only the contact point is mapped at each
-step (the JLD mapping of its segment). Here the object is any signed distance (negative
+step (the JLD mapping of its segment); with ``first_contact`` also the skin nodes the joint
+moves, and the first of them to reach the object stops the search. Here the object is any signed distance (negative
 inside); :func:`sphere_distance` and :func:`plane_distance` build the usual ones and
 :func:`surface_distance` wraps a closed surface.
 
@@ -103,6 +104,36 @@ def _point_map(hand: Hand, node: int) -> JLDMap:
     return cache["map", node]
 
 
+def _moving_skin(hand: Hand, joint: str, base: Mapping[str, float]) -> tuple[NDArray, JLDMap]:
+    """The skin nodes that ``joint`` moves, and their JLD map (kept with the hand).
+
+    The nodes whose mapping changes between the joint's limits, the other angles as in
+    ``base``: the segments beyond the joint and the buffer areas around it.
+    """
+    cache = hand.derived
+    if ("moving", joint) not in cache:
+        if "skin map" not in cache:
+            nodes = hand.skin_faces.nodes
+            cache["skin map"] = nodes, JLDMap(
+                hand.skeleton,
+                hand.flesh.points[nodes],
+                hand.bone_id[nodes],
+                reference=(hand.flesh.points, hand.bone_id),
+            )
+        nodes, skin = cache["skin map"]
+        lo, hi = hand.skeleton.limits[joint]
+        a = skin.map({**base, joint: lo})
+        b = skin.map({**base, joint: hi})
+        moving = nodes[np.linalg.norm(a - b, axis=1) > 1e-9 * hand.skeleton.spec.min_flesh]
+        cache["moving", joint] = moving, JLDMap(
+            hand.skeleton,
+            hand.flesh.points[moving],
+            hand.bone_id[moving],
+            reference=(hand.flesh.points, hand.bone_id),
+        )
+    return cache["moving", joint]
+
+
 def fingertip_node(hand: Hand, finger: str) -> int:
     """Flesh node at the tip of a named finger.
 
@@ -170,6 +201,9 @@ class AutoFlexResult:
     ----------
     joint : str
         The angle searched (a flexion ``"index_pip"`` or pivot ``"..._pivot"``).
+    node : int
+        The flesh node that reached the target: the point, or the first skin node the
+        joint moves into the object before it (the pad of a finger before its tip).
     angle : float
         Degrees found (the best bracket end when not converged).
     distance : float
@@ -189,6 +223,7 @@ class AutoFlexResult:
     """
 
     joint: str
+    node: int
     angle: float
     distance: float
     target: float
@@ -210,6 +245,7 @@ def auto_flex(
     bracket: tuple[float, float] | None = None,
     scan: int = 16,
     max_halvings: int = 60,
+    first_contact: bool = False,
 ) -> AutoFlexResult:
     """Find the flexion of ``joint`` at which a hand point reaches an object.
 
@@ -236,6 +272,12 @@ def auto_flex(
         target (the first contact, not a later exit from the object); that step is then
         halved until the distance is within ``epsilon``.
     max_halvings : int
+    first_contact : bool
+        False (the seed's AUTO_F): the point alone reaches the target. True: the first
+        skin node the joint moves to the target stops the search, the point or another
+        (a finger's pad before its tip, on a small ball), so that the flexion never drives
+        the finger through the object to bring the point there; nodes already past the
+        target at the bracket's start are left out (contacts the solver resolves).
 
     Returns
     -------
@@ -266,16 +308,40 @@ def auto_flex(
     jld = _point_map(hand, node)
     target = -float(press)
     history: list[tuple[float, float]] = []
+    others, guard = np.zeros(0, dtype=np.int64), None
+    if first_contact:
+        guard_nodes, guard = _moving_skin(hand, joint, base)
+        outside = distance(guard.map({**base, joint: lo})) > target
+        others = guard_nodes
+        others = others[outside & (others != node)]
+        if not others.size:
+            guard = None
+    who: dict[float, int] = {}
 
     def f(alpha: float) -> float:
         pose = {**base, joint: alpha}
         d = float(distance(jld.map(pose))[0])
+        who[alpha] = node
+        if guard is not None:
+            dg = distance(guard.map(pose)[outside & (guard_nodes != node)])
+            k = int(np.argmin(dg))
+            if dg[k] < d:
+                d, who[alpha] = float(dg[k]), int(others[k])
         history.append((alpha, d))
         return d - target
 
     def done(alpha: float, fa: float, n: int, ok: bool, why: str) -> AutoFlexResult:
         return AutoFlexResult(
-            joint, alpha, fa + target, target, n, ok, why, {**base, joint: alpha}, history
+            joint,
+            who.get(alpha, node),
+            alpha,
+            fa + target,
+            target,
+            n,
+            ok,
+            why,
+            {**base, joint: alpha},
+            history,
         )
 
     # march from the bracket's start to the first sign change (first contact), then halve

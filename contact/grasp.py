@@ -117,6 +117,7 @@ class GraspRun:
                 angles=angles,
                 press=af.press,
                 epsilon=af.epsilon,
+                first_contact=af.first_contact,
             )
             if not res.converged:
                 log.warning("t = %g: automatic flexion of %s: %s", t, af.joint, res.reason)

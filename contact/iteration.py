@@ -87,6 +87,9 @@ LCP_TOLERANCE = 0.5
 #: otherwise slide it through a wall it nearly touches (a ball resting in a bowl whose
 #: walls touch it between nodes).
 NEAR = 0.5
+#: A solve that moves a free body rigidly by more than this many element sizes (the
+#: frame's largest) jumped: new rows are linearised where it was before.
+JUMP = 0.5
 #: Updates in a frame whose solve slides a free body so far that contacts leave their
 #: facets, each caught by new contacts where it slid, before the frame stops as not held.
 SLIDES = 3
@@ -433,6 +436,7 @@ class _Frame:
         released: NDArray[np.bool_] | None = None,
         idle: NDArray[np.bool_] | None = None,
         near: float = 0.0,
+        before: tuple[dict[str, NDArray], float] | None = None,
     ) -> tuple[ContactRows, int, float]:
         """The next contact set: rows released, penetrating nodes added, stale rows renewed.
 
@@ -455,6 +459,12 @@ class _Frame:
             of their element sizes (candidates the unilateral solve leaves open unless the
             body closes on them: a free body's first solve cannot slide it through a wall
             it nearly touches). A plane's row is exact wherever the node goes.
+        before : (dict of str to ndarray, float), optional
+            The displacements before a solve that moved a free body rigidly by more
+            than half an element, and how far (m). New rows of deformable masters are
+            linearised there, where their nodes were still outside, on the facets they
+            were coming to: at the new place a node found deep inside would get the
+            closest facet of wherever it landed (the far side of a finger).
 
         Returns
         -------
@@ -536,13 +546,33 @@ class _Frame:
                     drop[own[np.argmax(rows.normal[own] @ p.normal[w])]] = True
             if drop.any():
                 rows = rows.select(~drop)
-            hit |= stale
-            if hit.any():
-                rows = rows.extended(self.pairs, i, p.select(hit))
-                changed += int(hit.sum())
+            if before is not None and not pair.rigid and hit.any():
+                q = _merged(self._outside_before(i, p.select(hit), before), p.select(stale))
+            else:
+                q = p.select(hit | stale)
+            if q.nodes.size:
+                rows = rows.extended(self.pairs, i, q)
+                changed += q.nodes.size
         self.broken_keys = np.concatenate(broken) if broken else np.zeros(0, dtype=np.int64)
         self.timings["geometry"] += time.perf_counter() - t
         return rows, changed, depth
+
+    def _outside_before(
+        self, i: int, p: Penetrations, before: tuple[dict[str, NDArray], float]
+    ) -> Penetrations:
+        """``p`` with each node measured at ``before`` instead, where it was outside."""
+        u, jump = before
+        prior = self.measure_pair(i, u, jump + self.margin)
+        pos = {int(n): k for k, n in enumerate(prior.nodes)}
+        take = np.array([pos.get(int(n), -1) for n in p.nodes], dtype=np.int64)
+        ok = take >= 0
+        ok[ok] = prior.gap[take[ok]] >= 0.0
+        if not ok.any():
+            return p
+        out = p.select(np.ones(p.nodes.size, dtype=bool))
+        for name in ("gap", "facet", "weights", "normal"):
+            getattr(out, name)[ok] = getattr(prior, name)[take[ok]]
+        return out
 
     def without_broken(self, rows: ContactRows) -> ContactRows:
         """``rows`` less those whose node the last :meth:`new_rows` found off its master.
@@ -690,6 +720,18 @@ class _Frame:
         )
 
 
+def _merged(a: Penetrations, b: Penetrations) -> Penetrations:
+    """The entries of ``a``, then ``b``'s."""
+    if not b.nodes.size:
+        return a
+    return Penetrations(
+        *(np.concatenate([getattr(a, f), getattr(b, f)]) for f in _PEN_FIELDS)
+    )
+
+
+_PEN_FIELDS = ("nodes", "gap", "facet", "weights", "normal")
+
+
 def _first(gap: NDArray[np.float64], tol: NDArray[np.float64]) -> NDArray[np.bool_]:
     """The first contact set of a pair: nodes deeper than half its deepest overlap.
 
@@ -822,6 +864,8 @@ def _contact_space(frame: _Frame) -> FrameResult:
     start: NDArray[np.float64] | None = None
     slides = 0
     slid: tuple[str, dict[str, NDArray[np.float64]]] | None = None
+    last_u = u
+    last_moves: dict[str, NDArray[np.float64]] = {}
     for it in range(1, st.max_iterations + 1):
         key = _key(rows)
         if key in seen:
@@ -843,7 +887,14 @@ def _contact_space(frame: _Frame) -> FrameResult:
         flat = np.concatenate([states[b.name].u for b in frame.bodies])
         change = float(np.abs(flat - prev).max())
         prev = flat
-        grown, added, depth = frame.new_rows(rows, u, False, idle=~closed)
+        moves = frame.slides(states)
+        jump = max(
+            (float(np.linalg.norm(m - last_moves.get(n, 0.0))) for n, m in moves.items()),
+            default=0.0,
+        )
+        before = (last_u, jump) if jump > JUMP * frame.margin else None
+        last_u, last_moves = u, moves
+        grown, added, depth = frame.new_rows(rows, u, False, idle=~closed, before=before)
         if frame.broken:
             slides += 1
             slid = slid or (frame.slipping(states, frame.broken), frame.slides(states))

@@ -102,6 +102,9 @@ class AutoFlex:
         Depth (m) to press past first contact.
     times : tuple of float or None
         Frame times at which it applies; None: every frame.
+    first_contact : bool
+        Stop at the first skin node the joint brings to the ball (``point`` or another,
+        a finger's pad before its tip); False: ``point`` alone, as the seed.
     """
 
     joint: str
@@ -109,6 +112,7 @@ class AutoFlex:
     epsilon: float = 1e-4
     press: float = 0.0
     times: tuple[float, ...] | None = None
+    first_contact: bool = True
 
 
 @dataclass(frozen=True)
@@ -664,7 +668,12 @@ def _read_auto_flexion(
     out: list[AutoFlex] = []
     for i, a in enumerate(value):
         where = f"hand.auto_flexion[{i}]"
-        r.table(a, where, required=("joint", "point"), optional=("epsilon", "press", "times"))
+        r.table(
+            a,
+            where,
+            required=("joint", "point"),
+            optional=("epsilon", "press", "times", "first_contact"),
+        )
         joint = r.string(a["joint"], f"{where}.joint")
         if joint not in skeleton.limits:
             hint = _hint(joint, list(skeleton.limits))
@@ -697,7 +706,8 @@ def _read_auto_flexion(
                     joint,
                     "already searched by an earlier auto_flexion at these times",
                 )
-        out.append(AutoFlex(joint, point, eps, press, times))
+        first = r.boolean(a.get("first_contact", True), f"{where}.first_contact")
+        out.append(AutoFlex(joint, point, eps, press, times, first))
     return tuple(out)
 
 
