@@ -4,9 +4,9 @@ The seed's AUTO_F commands take a keyframe, a hand vertex, an object's facet and
 and find the flexion angle ``alpha`` with ``|DIST(alpha) - DIST| < epsilon`` by a
 dichotomous search instead of inverse kinematics. Only the contact point is mapped at each
 step (the JLD mapping of its segment); with ``first_contact`` also the skin nodes the joint
-moves, and the first of them to reach the object stops the search. Here the object is any signed distance (negative
-inside); :func:`sphere_distance` and :func:`plane_distance` build the usual ones and
-:func:`surface_distance` wraps a closed surface.
+moves, and the first of them to reach the object stops the search. Here the object is any
+signed distance (negative inside); :func:`sphere_distance` and :func:`plane_distance` build
+the usual ones and :func:`surface_distance` wraps a closed surface.
 
 A scene can ask for a further press: ``target = -press`` finds the angle at which the point
 lies ``press`` inside the undeformed object; the contact iteration then resolves that
@@ -91,16 +91,21 @@ def surface_distance(surface: pyvista.PolyData) -> Distance:
     return dist
 
 
+def _flesh_map(hand: Hand, nodes: NDArray[np.int64]) -> JLDMap:
+    """The JLD map of flesh nodes, localised against the whole flesh."""
+    return JLDMap(
+        hand.skeleton,
+        hand.flesh.points[nodes],
+        hand.bone_id[nodes],
+        reference=(hand.flesh.points, hand.bone_id),
+    )
+
+
 def _point_map(hand: Hand, node: int) -> JLDMap:
     """The JLD map of one flesh node, localised against the whole flesh (kept with the hand)."""
     cache = hand.derived
     if ("map", node) not in cache:
-        cache["map", node] = JLDMap(
-            hand.skeleton,
-            hand.flesh.points[[node]],
-            hand.bone_id[[node]],
-            reference=(hand.flesh.points, hand.bone_id),
-        )
+        cache["map", node] = _flesh_map(hand, np.array([node]))
     return cache["map", node]
 
 
@@ -114,23 +119,13 @@ def _moving_skin(hand: Hand, joint: str, base: Mapping[str, float]) -> tuple[NDA
     if ("moving", joint) not in cache:
         if "skin map" not in cache:
             nodes = hand.skin_faces.nodes
-            cache["skin map"] = nodes, JLDMap(
-                hand.skeleton,
-                hand.flesh.points[nodes],
-                hand.bone_id[nodes],
-                reference=(hand.flesh.points, hand.bone_id),
-            )
+            cache["skin map"] = (nodes, _flesh_map(hand, nodes))
         nodes, skin = cache["skin map"]
         lo, hi = hand.skeleton.limits[joint]
         a = skin.map({**base, joint: lo})
         b = skin.map({**base, joint: hi})
         moving = nodes[np.linalg.norm(a - b, axis=1) > 1e-9 * hand.skeleton.spec.min_flesh]
-        cache["moving", joint] = moving, JLDMap(
-            hand.skeleton,
-            hand.flesh.points[moving],
-            hand.bone_id[moving],
-            reference=(hand.flesh.points, hand.bone_id),
-        )
+        cache["moving", joint] = (moving, _flesh_map(hand, moving))
     return cache["moving", joint]
 
 
@@ -308,22 +303,21 @@ def auto_flex(
     jld = _point_map(hand, node)
     target = -float(press)
     history: list[tuple[float, float]] = []
-    others, guard = np.zeros(0, dtype=np.int64), None
+    # with first_contact, the skin nodes the joint moves, less those already past the
+    # target at the start (contacts the solver resolves): the first to reach it stops
+    others, guard, keep = np.zeros(0, dtype=np.int64), None, np.zeros(0, dtype=bool)
     if first_contact:
-        guard_nodes, guard = _moving_skin(hand, joint, base)
-        outside = distance(guard.map({**base, joint: lo})) > target
-        others = guard_nodes
-        others = others[outside & (others != node)]
-        if not others.size:
-            guard = None
+        moving, guard = _moving_skin(hand, joint, base)
+        keep = (distance(guard.map({**base, joint: lo})) > target) & (moving != node)
+        others = moving[keep]
     who: dict[float, int] = {}
 
     def f(alpha: float) -> float:
         pose = {**base, joint: alpha}
         d = float(distance(jld.map(pose))[0])
         who[alpha] = node
-        if guard is not None:
-            dg = distance(guard.map(pose)[outside & (guard_nodes != node)])
+        if others.size:
+            dg = distance(guard.map(pose)[keep])  # type: ignore[union-attr]
             k = int(np.argmin(dg))
             if dg[k] < d:
                 d, who[alpha] = float(dg[k]), int(others[k])

@@ -101,9 +101,14 @@ class GraspRun:
     # --- step 1: positioning -------------------------------------------------------
 
     def angles(self, t: float) -> dict[str, float]:
-        """The hand's angles at time ``t``: keyframes, then automatic flexion."""
+        """The hand's angles at time ``t``: keyframes, then automatic flexion.
+
+        Each automatic flexion's outcome is kept in :attr:`auto_flexed` (joint to angle,
+        the node that reached the ball, its distance, converged and why).
+        """
         assert self.keyframes is not None and self.hand is not None
         angles = self.keyframes.pose(t)
+        self.auto_flexed: dict[str, dict] = {}
         for af in self.scene.hand.auto_flexion:
             if af.times is not None and not any(abs(t - s) <= 1e-12 for s in af.times):
                 continue
@@ -121,6 +126,13 @@ class GraspRun:
             )
             if not res.converged:
                 log.warning("t = %g: automatic flexion of %s: %s", t, af.joint, res.reason)
+            self.auto_flexed[af.joint] = {
+                "angle": res.angle,
+                "node": res.node,
+                "distance": res.distance,
+                "converged": res.converged,
+                "reason": res.reason,
+            }
             angles = dict(res.angles)
         return angles
 
@@ -228,6 +240,8 @@ class GraspRun:
             bodies.append(hand)
             pairs += [ContactPair(ball, hand), ContactPair(hand, ball)]
             extra["angles"] = angles
+            if self.auto_flexed:
+                extra["auto_flexion"] = self.auto_flexed
             assert self._pose is not None
             extra["min_tet_quality"] = float(self._pose.min_quality)
         planes = [Plane(p.point, p.normal, motion=p.offset(t), name=p.name) for p in sc.planes]

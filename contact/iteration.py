@@ -724,9 +724,7 @@ def _merged(a: Penetrations, b: Penetrations) -> Penetrations:
     """The entries of ``a``, then ``b``'s."""
     if not b.nodes.size:
         return a
-    return Penetrations(
-        *(np.concatenate([getattr(a, f), getattr(b, f)]) for f in _PEN_FIELDS)
-    )
+    return Penetrations(*(np.concatenate([getattr(a, f), getattr(b, f)]) for f in _PEN_FIELDS))
 
 
 _PEN_FIELDS = ("nodes", "gap", "facet", "weights", "normal")

@@ -75,6 +75,36 @@ def test_press_depth_bends_further(hand, ball):
     assert press.angle > touch.angle + 1.0
 
 
+def test_first_contact_stops_at_the_pad_that_reaches_the_ball_before_the_tip(hand):
+    # a ball under the index's middle phalanx: flexing the MCP brings the finger's pad
+    # to it long before the tip, which curls past it
+    base = {"index_pip": 40.0, "index_dip": 20.0}
+    skin = hand.skin_faces.nodes
+    bone = hand.skeleton.bones["index_middle"]
+    tip = fingertip_node(hand, "index")
+    mid = 0.5 * (bone.start + bone.end)
+    at = {a: pose_hand(hand, {**base, "index_mcp": a}, check=False).points for a in (0.0, 30.0)}
+    # the pad: the skin node near the middle phalanx that the flexion moves most
+    near = skin[np.linalg.norm(hand.flesh.points[skin] - mid, axis=1) < 0.012]
+    pad = near[np.argmax(np.linalg.norm(at[30.0][near] - at[0.0][near], axis=1))]
+    ahead = at[30.0][pad] - at[0.0][pad]
+    centre = at[30.0][pad] + R * ahead / np.linalg.norm(ahead)
+    ball = sphere_distance(centre, R)
+    res = auto_flex(hand, "index", ball, "index_mcp", base, press=0.001, first_contact=True)
+    assert res.converged and res.node != tip
+    assert res.distance == pytest.approx(-0.001, abs=1e-4)
+    posed = pose_hand(hand, res.angles, check=False).points
+    # the node it names is the deepest skin node the joint moved, at the press asked
+    assert ball(posed[[res.node]])[0] == pytest.approx(res.distance, abs=1e-9)
+    moved = skin[np.linalg.norm(posed[skin] - hand.flesh.points[skin], axis=1) > 1e-6]
+    assert ball(posed[moved]).min() >= res.distance - 1e-9
+    assert ball(posed[[tip]])[0] > 0.0  # the tip has not reached the ball
+    assert res.angle < 31.0  # the pad itself touches at 30 degrees: something did first
+    # the seed's search for the tip alone drives the finger through the ball
+    seed = auto_flex(hand, "index", ball, "index_mcp", base, press=0.001)
+    assert seed.node == tip and (not seed.converged or seed.angle > res.angle + 5.0)
+
+
 def test_no_contact_in_the_bracket_is_reported_not_raised(hand):
     far = plane_distance([0.0, 0.0, -0.5], [0.0, 0.0, 1.0])  # half a metre below the palm
     res = auto_flex(hand, "middle", far, "middle_pip", bracket=(0.0, 60.0))

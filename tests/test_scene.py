@@ -306,6 +306,10 @@ def test_auto_flexion_node_and_every_frame(scene_file) -> None:
     )
     (a,) = load_scene(scene_file(text)).hand.auto_flexion
     assert a == AutoFlex("index_pip", 1234, 1e-5, 0.001, None)
+    assert a.first_contact  # the default: the first skin node the joint brings there
+    text = edit(BASE, "times = [1.0]", "first_contact = false")
+    (b,) = load_scene(scene_file(text)).hand.auto_flexion
+    assert not b.first_contact
 
 
 def test_error_classes() -> None:
@@ -432,6 +436,8 @@ BAD = [
      ["hand.auto_flexion[0].times[0] = 0.75", "frame times"]),
     ("auto-flex-press", "times = [1.0]", "press = -0.001",
      ["hand.auto_flexion[0].press = -0.001", "negative"]),
+    ("auto-flex-first", "times = [1.0]", 'first_contact = "yes"',
+     ["hand.auto_flexion[0].first_contact = 'yes'", "true or false"]),
     ("auto-flex-epsilon", "times = [1.0]", "epsilon = 0.0",
      ["hand.auto_flexion[0].epsilon = 0.0", "positive"]),
     ("gravity", 'description = "a hand, a ball, a table"', "gravity = [0.0, -9.81]",
