@@ -261,6 +261,8 @@ class _Frame:
             first = _first(p.gap, self.tol(pair, p.nodes))  # as new_rows takes it
             local = self.local[slave.name][p.nodes]
             sel = slave_zone(slave.mesh.points, p.nodes, p.gap, first, local)
+            if pair.rigid:  # the first set's open rows near the plane (NEAR)
+                sel |= (p.gap >= -self.tol(pair, p.nodes)) & (p.gap < NEAR * local)
             near, gap = p.nodes[sel], p.gap[sel]
             if not near.size:
                 continue
