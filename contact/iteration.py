@@ -644,6 +644,34 @@ class _Frame:
                     out[name] = (mag, float(limit))
         return out
 
+    def separation(
+        self, rows: ContactRows, lam: NDArray[np.float64], pens: list[Penetrations]
+    ) -> float:
+        """Largest gap of a pushing row's node at the end, over its element size.
+
+        A row is linear in the displacements: taken where the bodies were, it still
+        pushes once they have slid along each other, with its node found apart from the
+        master by the nonlinear measure (the row's plane and the master's surface part
+        by about the slide times the turn of the normal). Out of the measure's reach
+        counts as one element.
+        """
+        out = 0.0
+        for i, (pair, p) in enumerate(zip(self.pairs, pens)):
+            if pair.rigid or i in self.mortar:
+                continue  # a plane's row is exact; a mortar row closes weighted gaps
+            nodes = rows.node[(rows.pair == i) & (lam > 0)]
+            if not nodes.size:
+                continue
+            gap = np.full(nodes.size, self.margin)  # out of reach: a whole element
+            if p.nodes.size:
+                order = np.argsort(p.nodes)
+                k = order[np.minimum(np.searchsorted(p.nodes, nodes, sorter=order), order.size - 1)]
+                hit = p.nodes[k] == nodes
+                gap[hit] = p.gap[k[hit]]
+            r = gap / self.local[pair.slave.name][nodes]
+            out = max(out, float(np.max(np.minimum(r, 1.0), initial=0.0)))
+        return out
+
     def result(
         self,
         *,
@@ -676,6 +704,7 @@ class _Frame:
             -p.gap / self.local[pair.slave.name][p.nodes] for pair, p in zip(self.pairs, pens)
         ]
         ratio = max((float(np.max(r, initial=0.0)) for r in ratios), default=0.0)
+        apart = self.separation(rows, lam, pens)
         if converged:
             # contacts whose rows could not be renewed any more may still penetrate: a
             # frame is converged only where every node-to-surface pair is within the
@@ -718,6 +747,7 @@ class _Frame:
             },
             max_penetration=depth,
             penetration_ratio=ratio,
+            separation_ratio=apart,
             timings=dict(self.timings),
         )
 

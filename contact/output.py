@@ -541,6 +541,7 @@ class ResultsWriter:
             "verdict": verdict(result),
             "max_penetration": float(result.max_penetration),
             "penetration_ratio": float(result.penetration_ratio),
+            "separation_ratio": float(result.separation_ratio),
             "contact_force": {
                 b: _vector(np.asarray(result.contact_force[b]).sum(axis=0))
                 for b in sorted(result.contact_force)

@@ -135,6 +135,10 @@ class FrameResult:
         Largest penetration of a slave node over its local element size (the square
         root of its tributary area); the solver keeps it under ``gap_tolerance`` when
         it converges.
+    separation_ratio : float
+        Largest gap of a pushing contact's node at the end over its element size (0 where
+        every pushing node touches): how far the linearised rows have drifted from the
+        surfaces they stand for (see :meth:`contact.iteration._Frame.separation`).
     timings : dict of str to float
         Seconds per phase.
     """
@@ -152,6 +156,7 @@ class FrameResult:
     contacts: dict[str, NDArray]
     max_penetration: float
     penetration_ratio: float = 0.0
+    separation_ratio: float = 0.0
     timings: dict[str, float] = field(default_factory=dict)
 
     def total_contact_force(self, body: str) -> NDArray[np.float64]:

@@ -76,10 +76,34 @@ def test_contact_space_converges_at_any_stiffness_ratio(ratio):
     local = min(np.sqrt(b.node_areas[b.contact_nodes].min()) for b in bodies)
     assert res.max_penetration <= 1e-3 * local
     assert res.penetration_ratio <= 1e-3
+    # and every node that pushes touches: its row has not drifted off the surfaces
+    assert res.separation_ratio <= 1e-3
     # the pad's base carries the plate's force
     assert res.support_forces["pad"]["base"][2] == pytest.approx(
         res.obstacle_forces["plate"][2], rel=1e-9
     )
+
+
+def test_separation_measures_how_far_a_pushing_node_is_off_its_master():
+    from contact.iteration import _Frame
+    from contact.pairs import ContactRows, Penetrations
+
+    bodies, pairs, planes = scene(1.0)
+    frame = _Frame(bodies, planes, pairs, ContactSettings())
+    i = next(k for k, p in enumerate(pairs) if p.name == "ball/pad")
+    nodes = np.array([3, 5, 7])
+    local = frame.local["ball"][nodes]
+    rows = ContactRows(pair=np.full(3, i), node=nodes, normal=np.tile([0.0, 0.0, 1.0], (3, 1)))
+    pens = [Penetrations.empty() for _ in pairs]
+    pens[i] = Penetrations(
+        nodes[:2], np.array([0.2, -0.1]) * local[:2], -np.ones((2, 3), np.int64),
+        np.zeros((2, 3)), np.zeros((2, 3)),
+    )  # fmt: skip
+    # node 3 pushes 0.2 of its element off the pad; 5 is inside; 7 is open (no force)
+    assert frame.separation(rows, np.array([1.0, 1.0, 0.0]), pens) == pytest.approx(0.2)
+    # a pushing node out of the measure's reach counts as a whole element off
+    assert frame.separation(rows, np.array([0.0, 1.0, 1.0]), pens) == 1.0
+    assert frame.separation(rows, np.zeros(3), pens) == 0.0
 
 
 def test_force_grows_with_ball_stiffness_towards_the_rigid_ball_limit():
