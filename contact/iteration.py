@@ -82,13 +82,14 @@ RELINEARISE = 8
 #: rest of the tolerance is for the linearisation's error, so that the nonlinear measure
 #: does not find the node inside and take it again.
 LCP_TOLERANCE = 0.5
-#: The first contact set of contact space also holds, open, the nodes outside a rigid
-#: plane within this many of their element sizes: a free body's first solve would
-#: otherwise slide it through a wall it nearly touches (a ball resting in a bowl whose
-#: walls touch it between nodes).
+#: The first contact set of contact space also holds, open, the nodes outside their
+#: master within this many of their element sizes: a free body's first solve would
+#: otherwise slide it through what it nearly touches (a bowl's walls that touch the
+#: ball between nodes, a palm half a millimetre above a ball the fingers squeeze).
 NEAR = 0.5
 #: A solve that moves a free body rigidly by more than this many element sizes (the
-#: frame's largest) jumped: new rows are linearised where it was before.
+#: frame's largest) jumped: new rows are linearised where it was before (a safety net
+#: behind ``NEAR``: an obstacle further than that from the ball at the frame's start).
 JUMP = 0.5
 #: Updates in a frame whose solve slides a free body so far that contacts leave their
 #: facets, each caught by new contacts where it slid, before the frame stops as not held.
@@ -261,8 +262,8 @@ class _Frame:
             first = _first(p.gap, self.tol(pair, p.nodes))  # as new_rows takes it
             local = self.local[slave.name][p.nodes]
             sel = slave_zone(slave.mesh.points, p.nodes, p.gap, first, local)
-            if pair.rigid:  # the first set's open rows near the plane (NEAR)
-                sel |= (p.gap >= -self.tol(pair, p.nodes)) & (p.gap < NEAR * local)
+            # the first set's open rows of nodes near the master (NEAR)
+            sel |= (p.gap >= -self.tol(pair, p.nodes)) & (p.gap < NEAR * local)
             near, gap = p.nodes[sel], p.gap[sel]
             if not near.size:
                 continue
@@ -457,10 +458,10 @@ class _Frame:
             node has moved half an element off its master, or out of reach, are dropped
             instead of counting as contacts that left their facets.
         near : float
-            With ``touching``, also take the nodes outside a rigid plane within this many
+            With ``touching``, also take the nodes outside their master within this many
             of their element sizes (candidates the unilateral solve leaves open unless the
-            body closes on them: a free body's first solve cannot slide it through a wall
-            it nearly touches). A plane's row is exact wherever the node goes.
+            bodies close on them: a free body's first solve cannot slide it through what
+            it nearly touches).
         before : (dict of str to ndarray, float), optional
             The displacements before a solve that moved a free body rigidly by more
             than half an element, and how far (m). New rows of deformable masters are
@@ -509,7 +510,7 @@ class _Frame:
             fresh = ~active & ~np.isin(p.nodes, dropped.node[dropped.pair == i])
             depth = max(depth, float(np.max(-p.gap, initial=0.0)))
             hit = fresh & (_first(p.gap, tol) if touching else (p.gap < -tol))
-            if touching and near > 0.0 and pair.rigid:
+            if touching and near > 0.0:
                 local = self.local[pair.slave.name][p.nodes]
                 hit |= fresh & (p.gap >= -tol) & (p.gap < near * local)
             j = self.reverse[i]
