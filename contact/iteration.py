@@ -368,7 +368,7 @@ class _Frame:
             eb = e.get(name)
             if eb is None or not (lam > 0).any():
                 return False
-            t = (eb[lam > 0] @ body.solver.modes[:, :3]) if eb.shape[0] else np.zeros((0, 3))
+            t = eb[lam > 0] @ body.solver.modes[:, :3]  # the pushing rows' directions
             _, sv, vt = np.linalg.svd(t, full_matrices=False)
             span = vt[sv > 1e-6 * sv.max()] if sv.size and sv.max() > 0 else np.zeros((0, 3))
             if np.linalg.norm(span @ (move / dist)) < HELD_COS:
@@ -550,7 +550,7 @@ class _Frame:
             if drop.any():
                 rows = rows.select(~drop)
             if before is not None and not pair.rigid and hit.any():
-                q = _merged(self._outside_before(i, p.select(hit), before), p.select(stale))
+                q = self._outside_before(i, p.select(hit), before).joined(p.select(stale))
             else:
                 q = p.select(hit | stale)
             if q.nodes.size:
@@ -751,16 +751,6 @@ class _Frame:
             separation_ratio=apart,
             timings=dict(self.timings),
         )
-
-
-def _merged(a: Penetrations, b: Penetrations) -> Penetrations:
-    """The entries of ``a``, then ``b``'s."""
-    if not b.nodes.size:
-        return a
-    return Penetrations(*(np.concatenate([getattr(a, f), getattr(b, f)]) for f in _PEN_FIELDS))
-
-
-_PEN_FIELDS = ("nodes", "gap", "facet", "weights", "normal")
 
 
 def _first(gap: NDArray[np.float64], tol: NDArray[np.float64]) -> NDArray[np.bool_]:

@@ -145,6 +145,16 @@ class Penetrations:
             self.normal[mask],
         )
 
+    def joined(self, other: Penetrations) -> Penetrations:
+        """These entries, then ``other``'s."""
+        return Penetrations(
+            np.concatenate([self.nodes, other.nodes]),
+            np.concatenate([self.gap, other.gap]),
+            np.concatenate([self.facet, other.facet]),
+            np.concatenate([self.weights, other.weights]),
+            np.concatenate([self.normal, other.normal]),
+        )
+
 
 @dataclass(frozen=True)
 class Survey:

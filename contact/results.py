@@ -107,8 +107,11 @@ class FrameResult:
     converged : bool
         The contacts settled within the limits and no support force passed its limit.
     stop_reason : str
-        ``"converged"``, ``"iteration limit"``, ``"cycling"`` or ``"bone force limit:
-        ..."`` (naming the bone, its force and its limit).
+        ``"converged"``, ``"iteration limit"``, ``"cycling"``, ``"bone force limit:
+        ..."`` (naming the bone, its force and its limit), ``"penetration left: ..."``
+        (naming the node and the pair), ``"not held: ..."`` (a free body slid off its
+        contacts or was pushed out of them: how far and which way), or the seed loop's
+        ``"diverged"``.
     algorithm : str
         ``"contact-space"`` or ``"seed"``.
     iterations : int
