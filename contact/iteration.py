@@ -657,10 +657,11 @@ class _Frame:
         counts as one element.
         """
         out = 0.0
+        pushing = lam > 1e-9 * float(np.max(lam, initial=0.0))  # not round-off forces
         for i, (pair, p) in enumerate(zip(self.pairs, pens)):
             if pair.rigid or i in self.mortar:
                 continue  # a plane's row is exact; a mortar row closes weighted gaps
-            nodes = rows.node[(rows.pair == i) & (lam > 0)]
+            nodes = rows.node[(rows.pair == i) & pushing & (lam > 0)]
             if not nodes.size:
                 continue
             gap = np.full(nodes.size, self.margin)  # out of reach: a whole element
