@@ -23,11 +23,14 @@ import fem
 
 from .errors import ContactError
 
-__all__ = ["RADIUS_TOL", "Ball", "BallError", "BallSpec", "make_ball"]
+__all__ = ["RADIUS_TOL", "STRAIN_WARN", "Ball", "BallError", "BallSpec", "make_ball"]
 
 #: Boundary nodes of a ball read from a file must lie within this fraction of the radius
 #: of their sphere (and within a quarter of a hollow ball's wall thickness).
 RADIUS_TOL = 0.02
+#: A hollow ball whose internal pressure alone strains its wall by more than this (Lame's
+#: thick sphere) is beyond the small strains linear elasticity describes: a warning.
+STRAIN_WARN = 0.05
 log = logging.getLogger(__name__)
 _ICO_EDGE = 4.0 / math.sqrt(10.0 + 2.0 * math.sqrt(5.0))  # icosahedron edge / circumradius
 
@@ -139,6 +142,19 @@ class BallSpec:
     def material(self) -> fem.LinearElastic:
         """The ball's material."""
         return fem.LinearElastic(self.E, self.nu, self.density)
+
+    @property
+    def pressure_strain(self) -> float:
+        """The largest strain the internal pressure alone gives the wall (0 if solid).
+
+        Lame's thick sphere: the hoop strain at the cavity, ``u(a) / a`` with ``u(r) = p
+        a^3 / (E (b^3 - a^3)) ((1 - 2 nu) r + (1 + nu) b^3 / (2 r^2))``.
+        """
+        if self.kind != "hollow" or self.pressure == 0.0:
+            return 0.0
+        a, b, nu = self.inner_radius, self.radius, self.nu
+        c = self.pressure * a**3 / (self.E * (b**3 - a**3))
+        return abs(c * ((1 - 2 * nu) + (1 + nu) * b**3 / (2 * a**3)))
 
 
 @dataclass(frozen=True)
@@ -257,7 +273,8 @@ def make_ball(spec: BallSpec) -> Ball:
     elements through the wall, so that the wall can bend). Tets come from
     :func:`fem.tetrahedralize` of an icosphere whose edges are no longer than ``h``
     (hollow: with the inner sphere flipped inward to make the cavity); a hollow tet ball
-    warns when ``h`` exceeds half the wall thickness. A mesh file is read with
+    warns when ``h`` exceeds half the wall thickness. Any ball warns when its pressure
+    alone strains the wall beyond :data:`STRAIN_WARN`. A mesh file is read with
     :func:`fem.read_mesh` (a closed surface file is filled by :func:`fem.tetrahedralize`
     at its own mean edge length) and must be the ball of the spec: its outer (and for a hollow
     ball its inner) boundary nodes within :data:`RADIUS_TOL` of the radius about the
@@ -284,6 +301,15 @@ def make_ball(spec: BallSpec) -> Ball:
         _check_file(mesh, spec, path)
     else:
         mesh = _generate(spec)
+    strain = spec.pressure_strain
+    if strain > STRAIN_WARN:
+        warnings.warn(
+            f"ball.pressure = {spec.pressure:g} Pa strains the wall by {100 * strain:.3g} % "
+            f"on its own (Lame's thick sphere, E = {spec.E:g} Pa): beyond the small strains "
+            "linear elasticity describes, so its shape, stress and contact forces are "
+            "qualitative",
+            stacklevel=2,
+        )
     inner, outer = _split(mesh, spec)
     loads = fem.pressure_load(mesh, inner, spec.pressure)
     return Ball(spec, mesh, spec.material, inner, outer, outer.nodes, loads)

@@ -21,9 +21,11 @@ import argparse
 import logging
 import sys
 import time
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TextIO
 
 import numpy as np
 from numpy.typing import NDArray
@@ -389,13 +391,32 @@ def main(argv: Sequence[str] | None = None) -> int:
         level=logging.ERROR if args.quiet else logging.WARNING,
         format="%(levelname)s: %(message)s",
     )
-    return run(
-        args.scene,
-        out=args.out,
-        frames=args.frames,
-        pictures=False if args.no_pictures else None,
-        quiet=args.quiet,
-    )
+    # a warning (a mesh coarser than the wall, a pressure beyond small strains) is one
+    # line on stderr like the log's, not a source line and a traceback-like location
+    shown = warnings.showwarning
+    warnings.showwarning = _warn_line
+    try:
+        return run(
+            args.scene,
+            out=args.out,
+            frames=args.frames,
+            pictures=False if args.no_pictures else None,
+            quiet=args.quiet,
+        )
+    finally:
+        warnings.showwarning = shown
+
+
+def _warn_line(
+    message: Warning | str,
+    category: type[Warning],
+    filename: str,
+    lineno: int,
+    file: TextIO | None = None,
+    line: str | None = None,
+) -> None:
+    """A warning as one log line (suppressed by ``--quiet`` as the log is)."""
+    log.warning("%s", message)
 
 
 if __name__ == "__main__":

@@ -80,6 +80,7 @@ def test_cavity_and_pressure_load(ball):
     assert f[upper, 2].sum() == pytest.approx(P * math.pi * a**2, rel=0.03)
 
 
+@pytest.mark.filterwarnings("ignore:ball.pressure")  # a 2 mm wall at 2e4 Pa: 10 % strain
 def test_hollow_hex_has_two_elements_through_a_thin_wall():
     b = make_ball(spec("hollow", thickness=0.002, mesh_size=0.01))
     levels = np.unique(np.round(radii(b, np.arange(b.mesh.n_points)) / R, 9))
@@ -164,6 +165,18 @@ def test_mesh_file_not_this_ball_is_refused(tmp_path):
     fem.write_mesh(hollow, make_ball(spec("hollow")).mesh)
     with pytest.raises(BallError, match=r"hollow\.vtu': not a solid ball.*from 0\.023 to"):
         make_ball(spec("solid", mesh_size=None, mesh=hollow))
+
+
+def test_a_pressure_beyond_small_strains_warns():
+    E, nu, a, b = 1.0e6, 0.3, R - T, R
+    s = spec("hollow", E=E, nu=nu, mesh_size=0.0035)
+    exact = P * a**3 / (b**3 - a**3) * ((1 - 2 * nu) / E + (1 + nu) * b**3 / (2 * E * a**3))
+    assert s.pressure_strain == pytest.approx(exact, rel=1e-12)
+    assert spec("solid", mesh_size=0.0035).pressure_strain == 0.0
+    soft = spec("hollow", E=P / 0.5, nu=nu, mesh_size=0.0035)  # p / E = 0.5
+    assert soft.pressure_strain > 0.05
+    with pytest.warns(UserWarning, match=r"strains the wall by .* beyond the small strains"):
+        make_ball(soft)
 
 
 def test_hollow_hex_expands_as_lames_thick_sphere():

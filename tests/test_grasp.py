@@ -77,6 +77,21 @@ def test_frames_option_and_out_option(tmp_path):
     assert [f["time"] for f in summary["frames"]] == [1.0]
 
 
+def test_a_warning_is_one_log_line(tmp_path, capsys, caplog):
+    scene, out = write(tmp_path)
+    text = scene.read_text().replace(
+        'kind = "solid"', 'kind = "hollow"\nthickness = 0.004\npressure = 2.0e5'
+    )
+    scene.write_text(text)
+    assert main([str(scene), "--frames", "0"]) == 0
+    # through the log (one "WARNING: ..." line on stderr), not Python's warning display
+    (rec,) = [r for r in caplog.records if "ball.pressure" in r.getMessage()]
+    assert rec.levelname == "WARNING" and rec.name == "contact.grasp"
+    assert rec.getMessage().startswith("ball.pressure = 200000 Pa strains the wall by ")
+    assert "UserWarning" not in capsys.readouterr().err
+    assert (out / "summary.json").is_file()
+
+
 def test_not_converged_exits_1_and_still_writes(tmp_path, monkeypatch):
     # without the plate's near nodes in the first set its patch takes two updates
     import contact.iteration
