@@ -23,11 +23,15 @@ import fem
 
 from .errors import ContactError
 
-__all__ = ["RADIUS_TOL", "STRAIN_WARN", "Ball", "BallError", "BallSpec", "make_ball"]
+__all__ = ["LOCKING_NU", "RADIUS_TOL", "STRAIN_WARN", "Ball", "BallError", "BallSpec", "make_ball"]
 
 #: Boundary nodes of a ball read from a file must lie within this fraction of the radius
 #: of their sphere (and within a quarter of a hollow ball's wall thickness).
 RADIUS_TOL = 0.02
+#: A ball of linear tetrahedra with a Poisson's ratio above this warns of volumetric
+#: locking (measured on Lame's thick sphere, 3 tets through a 12 mm wall: 7 % too stiff at
+#: nu = 0.45, 16 % at 0.49; the B-bar bricks of ``element = "hex"``: 1 % at both).
+LOCKING_NU = 0.45
 #: A hollow ball whose internal pressure alone strains its wall by more than this (Lame's
 #: thick sphere) is beyond the small strains linear elasticity describes: a warning.
 STRAIN_WARN = 0.05
@@ -274,7 +278,8 @@ def make_ball(spec: BallSpec) -> Ball:
     :func:`fem.tetrahedralize` of an icosphere whose edges are no longer than ``h``
     (hollow: with the inner sphere flipped inward to make the cavity); a hollow tet ball
     warns when ``h`` exceeds half the wall thickness. Any ball warns when its pressure
-    alone strains the wall beyond :data:`STRAIN_WARN`. A mesh file is read with
+    alone strains the wall beyond :data:`STRAIN_WARN`, and one of tetrahedra when its
+    Poisson's ratio passes :data:`LOCKING_NU` (volumetric locking). A mesh file is read with
     :func:`fem.read_mesh` (a closed surface file is filled by :func:`fem.tetrahedralize`
     at its own mean edge length) and must be the ball of the spec: its outer (and for a hollow
     ball its inner) boundary nodes within :data:`RADIUS_TOL` of the radius about the
@@ -301,6 +306,13 @@ def make_ball(spec: BallSpec) -> Ball:
         _check_file(mesh, spec, path)
     else:
         mesh = _generate(spec)
+    if spec.nu > LOCKING_NU and "tetra" in mesh.cells:
+        warnings.warn(
+            f"ball.material.nu = {spec.nu:g} on linear tetrahedra: they lock as nu nears "
+            "1/2 and the ball comes out too stiff (on Lame's thick sphere 7 % at nu = 0.45, "
+            '16 % at 0.49); element = "hex" (B-bar bricks) does not lock',
+            stacklevel=2,
+        )
     strain = spec.pressure_strain
     if strain > STRAIN_WARN:
         warnings.warn(

@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 
 import fem
 
-from .ball import Ball, make_ball
+from .ball import LOCKING_NU, Ball, make_ball
 from .body import ElasticBody
 from .errors import ContactError
 from .geometry import Plane
@@ -94,6 +94,13 @@ class GraspRun:
             self.poser = HandPoser(self.hand)
             self.keyframes = Keyframes(self.hand.skeleton, list(hs.keyframes))
             self.flesh = fem.LinearElastic(hs.flesh.E, hs.flesh.nu, density=hs.flesh.density)
+            if hs.flesh.nu > LOCKING_NU:  # the flesh is linear tetrahedra
+                warnings.warn(
+                    f"hand.flesh.nu = {hs.flesh.nu:g} on the flesh's linear tetrahedra: they "
+                    "lock as nu nears 1/2 and the flesh comes out too stiff (on Lame's thick "
+                    "sphere 7 % at nu = 0.45, 16 % at 0.49)",
+                    stacklevel=2,
+                )
             names = self.hand.skeleton.bone_names
             self.bones = {n: self.hand.bone_nodes(n) for n in names if self.hand.bone_nodes(n).size}
             self.limits = hs.limits(list(self.bones))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -177,6 +178,22 @@ def test_a_pressure_beyond_small_strains_warns():
     assert soft.pressure_strain > 0.05
     with pytest.warns(UserWarning, match=r"strains the wall by .* beyond the small strains"):
         make_ball(soft)
+
+
+def test_tetrahedra_near_incompressible_warn_of_locking(monkeypatch):
+    import contact.ball as ball_module
+
+    # the mesh itself does not matter here: a small hex_to_tet ball stands for pytetwild's
+    monkeypatch.setattr(
+        ball_module, "_generate", lambda s: fem.hex_to_tet(fem.ball_mesh(R, R, divisions=2))
+    )
+    with pytest.warns(UserWarning, match=r"nu = 0.49 on linear tetrahedra: they lock"):
+        make_ball(spec("solid", element="tet", nu=0.49, mesh_size=0.01))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        make_ball(spec("solid", element="tet", nu=0.45, mesh_size=0.01))  # the default
+        monkeypatch.undo()
+        make_ball(spec("solid", element="hex", nu=0.49, mesh_size=0.01))  # B-bar bricks
 
 
 def test_hollow_hex_expands_as_lames_thick_sphere():

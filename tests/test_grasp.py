@@ -92,6 +92,19 @@ def test_a_warning_is_one_log_line(tmp_path, capsys, caplog):
     assert (out / "summary.json").is_file()
 
 
+def test_nearly_incompressible_flesh_warns_of_locking(tmp_path):
+    from contact.grasp import GraspRun
+    from contact.scene import load_scene
+
+    text = HAND.format(out=(tmp_path / "out").as_posix()).replace(
+        'resolution = "coarse"', 'resolution = "coarse"\nflesh = { E = 5.0e4, nu = 0.49 }'
+    )
+    text = text.replace("center = [-0.007, 0.06, 0.0]", "center = [0.0, 0.06, -0.1]")
+    (tmp_path / "s.toml").write_text(text)
+    with pytest.warns(UserWarning, match=r"hand.flesh.nu = 0.49 on the flesh's linear tet"):
+        GraspRun(load_scene(tmp_path / "s.toml"))
+
+
 def test_not_converged_exits_1_and_still_writes(tmp_path, monkeypatch):
     # without the plate's near nodes in the first set its patch takes two updates
     import contact.iteration
