@@ -112,8 +112,9 @@ def _point_map(hand: Hand, node: int) -> JLDMap:
 def _moving_skin(hand: Hand, joint: str, base: Mapping[str, float]) -> tuple[NDArray, JLDMap]:
     """The skin nodes that ``joint`` moves, and their JLD map (kept with the hand).
 
-    The nodes whose mapping changes between the joint's limits, the other angles as in
-    ``base``: the segments beyond the joint and the buffer areas around it.
+    The nodes whose mapping changes between the joint's limits: the segments beyond the
+    joint and the buffer areas around it. Found once per joint (the other angles as in the
+    first call's ``base``: which nodes a joint moves does not depend on them).
     """
     cache = hand.derived
     if ("moving", joint) not in cache:
