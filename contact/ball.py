@@ -28,9 +28,10 @@ __all__ = ["LOCKING_NU", "RADIUS_TOL", "STRAIN_WARN", "Ball", "BallError", "Ball
 #: Boundary nodes of a ball read from a file must lie within this fraction of the radius
 #: of their sphere (and within a quarter of a hollow ball's wall thickness).
 RADIUS_TOL = 0.02
-#: A ball of linear tetrahedra with a Poisson's ratio above this warns of volumetric
-#: locking (measured on Lame's thick sphere, 3 tets through a 12 mm wall: 7 % too stiff at
-#: nu = 0.45, 16 % at 0.49; the B-bar bricks of ``element = "hex"``: 1 % at both).
+#: Linear tetrahedra with a Poisson's ratio above this lock (on Lame's thick sphere, 3 tets
+#: through a 12 mm wall: 7 % too stiff at nu = 0.45, 16 % at 0.49, 52 % at 0.499; the B-bar
+#: bricks of ``element = "hex"`` 1 %): a tet ball then takes averaged nodal pressures
+#: (3-4 % at every nu), and the hand's flesh warns.
 LOCKING_NU = 0.45
 #: A hollow ball whose internal pressure alone strains its wall by more than this (Lame's
 #: thick sphere) is beyond the small strains linear elasticity describes: a warning.
@@ -77,6 +78,11 @@ class BallSpec:
         Centre (m).
     E, nu, density : float
         Young's modulus (Pa), Poisson's ratio and density (kg/m^3).
+    nodal_pressure : bool or None
+        Tetrahedra with averaged nodal pressures (Bonet and Burton: no volumetric
+        locking, the factorisation three to four times dearer; :mod:`fem.nodalpressure`).
+        None (default): when the mesh is tetrahedra and ``nu`` is above
+        :data:`LOCKING_NU`. Bricks are B-bar whatever it says.
 
     Raises
     ------
@@ -96,6 +102,7 @@ class BallSpec:
     E: float = 1.0e6
     nu: float = 0.45
     density: float = 1100.0
+    nodal_pressure: bool | None = None
 
     def __post_init__(self) -> None:
         r = _number("radius", self.radius)
@@ -117,6 +124,10 @@ class BallSpec:
             if not 0 < t < r:
                 why = "must be positive" if t <= 0 else f"must be below the radius {r}"
                 raise BallError(f"ball.thickness = {self.thickness!r}: {why}")
+        if self.nodal_pressure not in (None, True, False):
+            raise BallError(
+                f"ball.nodal_pressure = {self.nodal_pressure!r}: must be true, false or absent"
+            )
         if (self.mesh_size is None) == (self.mesh is None):
             raise BallError(
                 f"ball.mesh_size = {self.mesh_size!r}, ball.mesh = {self.mesh!r}: give exactly one"
@@ -178,6 +189,8 @@ class Ball:
         Sorted nodes of ``outer``.
     loads : ndarray, shape (3N,)
         Nodal forces of the internal pressure (zero for a solid ball); self-balanced.
+    nodal_pressure : bool
+        Its tetrahedra with averaged nodal pressures (``spec.nodal_pressure`` resolved).
     """
 
     spec: BallSpec
@@ -187,6 +200,7 @@ class Ball:
     outer: fem.BoundaryFaces
     outer_nodes: NDArray[np.int64]
     loads: NDArray[np.float64]
+    nodal_pressure: bool = False
 
 
 def _refinement(radius: float, size: float) -> int:
@@ -278,8 +292,9 @@ def make_ball(spec: BallSpec) -> Ball:
     :func:`fem.tetrahedralize` of an icosphere whose edges are no longer than ``h``
     (hollow: with the inner sphere flipped inward to make the cavity); a hollow tet ball
     warns when ``h`` exceeds half the wall thickness. Any ball warns when its pressure
-    alone strains the wall beyond :data:`STRAIN_WARN`, and one of tetrahedra when its
-    Poisson's ratio passes :data:`LOCKING_NU` (volumetric locking). A mesh file is read with
+    alone strains the wall beyond :data:`STRAIN_WARN`. Tetrahedra with ``nu`` above
+    :data:`LOCKING_NU` take averaged nodal pressures unless the spec says not (then a
+    warning: they lock). A mesh file is read with
     :func:`fem.read_mesh` (a closed surface file is filled by :func:`fem.tetrahedralize`
     at its own mean edge length) and must be the ball of the spec: its outer (and for a hollow
     ball its inner) boundary nodes within :data:`RADIUS_TOL` of the radius about the
@@ -306,11 +321,21 @@ def make_ball(spec: BallSpec) -> Ball:
         _check_file(mesh, spec, path)
     else:
         mesh = _generate(spec)
-    if spec.nu > LOCKING_NU and "tetra" in mesh.cells:
+    tets = "tetra" in mesh.cells
+    nodal = spec.nodal_pressure
+    if nodal is None:
+        nodal = tets and spec.nu > LOCKING_NU
+        if nodal:
+            log.info(
+                "ball: nu = %g on linear tetrahedra: averaged nodal pressures (no locking)",
+                spec.nu,
+            )
+    elif not nodal and tets and spec.nu > LOCKING_NU:
         warnings.warn(
-            f"ball.material.nu = {spec.nu:g} on linear tetrahedra: they lock as nu nears "
-            "1/2 and the ball comes out too stiff (on Lame's thick sphere 7 % at nu = 0.45, "
-            '16 % at 0.49); element = "hex" (B-bar bricks) does not lock',
+            f"ball.material.nu = {spec.nu:g} on linear tetrahedra with ball.nodal_pressure "
+            "= false: they lock as nu nears 1/2 and the ball comes out too stiff (on Lame's "
+            "thick sphere 7 % at nu = 0.45, 16 % at 0.49); averaged nodal pressures (the "
+            'default) or element = "hex" (B-bar bricks) do not lock',
             stacklevel=2,
         )
     strain = spec.pressure_strain
@@ -324,4 +349,4 @@ def make_ball(spec: BallSpec) -> Ball:
         )
     inner, outer = _split(mesh, spec)
     loads = fem.pressure_load(mesh, inner, spec.pressure)
-    return Ball(spec, mesh, spec.material, inner, outer, outer.nodes, loads)
+    return Ball(spec, mesh, spec.material, inner, outer, outer.nodes, loads, bool(nodal))

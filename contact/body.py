@@ -52,6 +52,9 @@ class ElasticBody:
     bbar : bool, optional
         Bricks and wedges with their element's mean dilatation (default; see
         :func:`fem.assemble_stiffness`), or fully integrated.
+    nodal_pressure : bool, optional
+        Tetrahedra with averaged nodal pressures (no volumetric locking, about four times
+        the stiffness's nonzeros; :mod:`fem.nodalpressure`), or plain (default).
     """
 
     def __init__(
@@ -68,12 +71,16 @@ class ElasticBody:
         hold_rotation: bool = True,
         lazy: bool = True,
         bbar: bool = True,
+        nodal_pressure: bool = False,
     ) -> None:
         self.name = name
         self.mesh = mesh
         self.materials = materials
         self.bbar = bbar
-        self.stiffness = fem.assemble_stiffness(mesh, materials, bbar=bbar)
+        self.nodal_pressure = nodal_pressure
+        self.stiffness = fem.assemble_stiffness(
+            mesh, materials, bbar=bbar, nodal_pressure=nodal_pressure
+        )
         pres = None if prescribed is None else np.asarray(prescribed, dtype=np.int64)
         self.solver = fem.StaticSolver(
             self.stiffness,

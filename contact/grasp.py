@@ -177,6 +177,7 @@ class GraspRun:
                 loads=loads.ravel(),
                 contact_faces=self.ball.outer,
                 backend=self.scene.solver.linear_solver,
+                nodal_pressure=self.ball.nodal_pressure,
             )
             self._ball_key = key
             return self._ball_body
@@ -317,7 +318,11 @@ def run(
             # the hand drawn half transparent, so that the ball's stress shows through
             bodies = {
                 b.name: BodyFrame(
-                    b.mesh, b.materials, opacity=0.5 if b.name == "hand" else 1.0, bbar=b.bbar
+                    b.mesh,
+                    b.materials,
+                    opacity=0.5 if b.name == "hand" else 1.0,
+                    bbar=b.bbar,
+                    nodal_pressure=b.nodal_pressure,
                 )
                 for b in solved
             }

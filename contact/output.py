@@ -124,12 +124,15 @@ class BodyFrame:
     bbar : bool
         Its bricks and wedges with their mean dilatation, as its stiffness was assembled
         (:class:`contact.body.ElasticBody`): the stress follows the same strain.
+    nodal_pressure : bool
+        Its tetrahedra with averaged nodal pressures, likewise.
     """
 
     mesh: fem.Mesh
     materials: fem.LinearElastic | Mapping[int, fem.LinearElastic]
     opacity: float = 1.0
     bbar: bool = True
+    nodal_pressure: bool = False
 
 
 def verdict(result: FrameResult) -> dict[str, Any]:
@@ -487,7 +490,13 @@ class ResultsWriter:
             u = np.asarray(result.displacement[name], dtype=np.float64)
             f = result.contact_force.get(name)
             f = np.zeros_like(u) if f is None else np.asarray(f, dtype=np.float64)
-            sigma = cell_stress(body.mesh, body.materials, u.ravel(), bbar=body.bbar)
+            sigma = cell_stress(
+                body.mesh,
+                body.materials,
+                u.ravel(),
+                bbar=body.bbar,
+                nodal_pressure=body.nodal_pressure,
+            )
             vm = {k: von_mises(s) for k, s in sigma.items()}
             six = {k: s[:, _VOIGT[0], _VOIGT[1]] for k, s in sigma.items()}
             max_vm[name] = float(max(v.max() for v in vm.values()))

@@ -500,7 +500,7 @@ class _Reader:
 _TOP = ("scene", "ball", "hand", "plane", "frames", "solver", "output")
 _BALL = (
     "radius", "kind", "thickness", "pressure", "element", "mesh_size", "mesh", "center",
-    "material", "follow",
+    "material", "follow", "nodal_pressure",
 )  # fmt: skip
 _HAND = (
     "rig", "directory", "resolution", "flesh", "bone_force_limit", "bone_force_limits",
@@ -534,6 +534,8 @@ def _read_ball(r: _Reader, data: dict, base: Path) -> tuple[BallSpec, dict | Non
             kw[key] = r.string(b[key], f"ball.{key}", choices)
     if "center" in b:
         kw["center"] = r.vector(b["center"], "ball.center")
+    if "nodal_pressure" in b:
+        kw["nodal_pressure"] = r.boolean(b["nodal_pressure"], "ball.nodal_pressure")
     if "mesh" in b:
         if "mesh_size" in b:
             raise r.fail("ball.mesh", b["mesh"], "give mesh or mesh_size, not both")

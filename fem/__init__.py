@@ -37,6 +37,7 @@ from .loads import (
 from .material import LinearElastic, elasticity_matrix, lame
 from .mesh import BoundaryFaces, Mesh, bounding_box
 from .meshing import check_surface, sphere_surface, tetrahedralize
+from .nodalpressure import nodal_dilatation, nodal_pressure_correction
 from .pvmesh import from_pyvista, to_pyvista
 from .statics import StaticSolution, StaticSolver, check_balance, rigid_body_modes
 from .stress import cell_stress, gauss_strain, nodal_average, von_mises
@@ -84,6 +85,8 @@ __all__ = [
     "initial_stress_load",
     "lame",
     "nodal_average",
+    "nodal_dilatation",
+    "nodal_pressure_correction",
     "node_dofs",
     "point_load",
     "pressure_load",

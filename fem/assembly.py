@@ -113,7 +113,11 @@ def lame_fields(
 
 
 def assemble_stiffness(
-    mesh: Mesh, materials: LinearElastic | Mapping[int, LinearElastic], *, bbar: bool = True
+    mesh: Mesh,
+    materials: LinearElastic | Mapping[int, LinearElastic],
+    *,
+    bbar: bool = True,
+    nodal_pressure: bool = False,
 ) -> sp.csr_matrix:
     """Assemble the global stiffness matrix.
 
@@ -127,6 +131,10 @@ def assemble_stiffness(
         Hexahedra and wedges take their volumetric strain as the element's mean (B-bar:
         no volumetric locking as Poisson's ratio nears 1/2); False integrates every term
         at every Gauss point. Tetrahedra are the same either way.
+    nodal_pressure : bool
+        Tetrahedra take their volumetric energy at the nodes (Bonet and Burton's average
+        nodal pressure element, :mod:`fem.nodalpressure`: no volumetric locking, about
+        four times the nonzeros); False: plain linear tetrahedra.
 
     Returns
     -------
@@ -170,4 +178,8 @@ def assemble_stiffness(
     bsr = sp.bsr_matrix(
         (blocks.reshape(-1, 3, 3), pairs % n_nodes, indptr), shape=(mesh.n_dofs, mesh.n_dofs)
     )
+    if nodal_pressure and "tetra" in mesh.cells:
+        from .nodalpressure import nodal_pressure_correction  # it builds on this module
+
+        return (bsr.tocsr() + nodal_pressure_correction(mesh, materials)).tocsr()
     return bsr.tocsr()

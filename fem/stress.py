@@ -12,19 +12,22 @@ from .elements import ELEMENTS
 from .mapping import gradients
 from .material import LinearElastic
 from .mesh import Mesh
+from .nodalpressure import nodal_dilatation
 
 __all__ = ["cell_stress", "gauss_strain", "nodal_average", "stress_from_strain", "von_mises"]
 
 
 def _strain_and_weights(
-    mesh: Mesh, u: ArrayLike, bbar: bool = True
+    mesh: Mesh, u: ArrayLike, bbar: bool = True, nodal_pressure: bool = False
 ) -> dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]]:
     """Per type: strain at the Gauss points ``(M, q, 3, 3)`` and their weights ``(M, q)``.
 
     An element with ``mean_dilatation`` (B-bar) has its Gauss points' volumetric strain
-    replaced by the element's mean, as its stiffness does.
+    replaced by the element's mean, as its stiffness does; with ``nodal_pressure`` a
+    tetrahedron's by the mean of its nodes' (:mod:`fem.nodalpressure`).
     """
     uv = np.asarray(u, dtype=np.float64).reshape(-1, 3)
+    theta = nodal_dilatation(mesh, uv) if nodal_pressure and "tetra" in mesh.cells else None
     out = {}
     for kind, conn in mesh.cells.items():
         elem = ELEMENTS[kind]
@@ -36,16 +39,23 @@ def _strain_and_weights(
             tr = np.trace(eps, axis1=-2, axis2=-1)
             mean = (w * tr).sum(axis=1) / w.sum(axis=1)
             eps = eps + ((mean[:, None] - tr) / 3.0)[..., None, None] * np.eye(3)
+        if theta is not None and kind == "tetra":
+            tr = np.trace(eps, axis1=-2, axis2=-1)
+            mean = theta[conn].mean(axis=1)
+            eps = eps + ((mean[:, None] - tr) / 3.0)[..., None, None] * np.eye(3)
         out[kind] = (eps, w)
     return out
 
 
-def gauss_strain(mesh: Mesh, u: ArrayLike, *, bbar: bool = True) -> dict[str, NDArray[np.float64]]:
+def gauss_strain(
+    mesh: Mesh, u: ArrayLike, *, bbar: bool = True, nodal_pressure: bool = False
+) -> dict[str, NDArray[np.float64]]:
     """Small strain tensor at every Gauss point: per type ``(M, q, 3, 3)``.
 
-    ``bbar`` as in :func:`fem.assemble_stiffness` (the element's mean dilatation).
+    ``bbar`` and ``nodal_pressure`` as in :func:`fem.assemble_stiffness`.
     """
-    return {kind: eps for kind, (eps, _) in _strain_and_weights(mesh, u, bbar).items()}
+    strains = _strain_and_weights(mesh, u, bbar, nodal_pressure)
+    return {kind: eps for kind, (eps, _) in strains.items()}
 
 
 def stress_from_strain(
@@ -70,6 +80,7 @@ def cell_stress(
     *,
     at: str = "mean",
     bbar: bool = True,
+    nodal_pressure: bool = False,
 ) -> dict[str, NDArray[np.float64]]:
     """Cauchy stress per cell.
 
@@ -82,12 +93,12 @@ def cell_stress(
     at : {"mean", "gauss"}
         ``"mean"``: the volume average over each cell ``(M, 3, 3)``; ``"gauss"``: every
         Gauss point ``(M, q, 3, 3)``.
-    bbar : bool
+    bbar, nodal_pressure : bool
         As the stiffness was assembled (:func:`fem.assemble_stiffness`).
     """
     if at not in ("mean", "gauss"):
         raise ValueError(f"at must be 'mean' or 'gauss', got {at!r}")
-    strains = _strain_and_weights(mesh, u, bbar)
+    strains = _strain_and_weights(mesh, u, bbar, nodal_pressure)
     fields = lame_fields(mesh, materials)
     out = {}
     for kind, (e, w) in strains.items():

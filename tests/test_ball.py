@@ -180,20 +180,29 @@ def test_a_pressure_beyond_small_strains_warns():
         make_ball(soft)
 
 
-def test_tetrahedra_near_incompressible_warn_of_locking(monkeypatch):
+def test_tetrahedra_near_incompressible_take_nodal_pressures(monkeypatch):
     import contact.ball as ball_module
 
     # the mesh itself does not matter here: a small hex_to_tet ball stands for pytetwild's
     monkeypatch.setattr(
         ball_module, "_generate", lambda s: fem.hex_to_tet(fem.ball_mesh(R, R, divisions=2))
     )
-    with pytest.warns(UserWarning, match=r"nu = 0.49 on linear tetrahedra: they lock"):
-        make_ball(spec("solid", element="tet", nu=0.49, mesh_size=0.01))
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        make_ball(spec("solid", element="tet", nu=0.45, mesh_size=0.01))  # the default
-        monkeypatch.undo()
-        make_ball(spec("solid", element="hex", nu=0.49, mesh_size=0.01))  # B-bar bricks
+        assert make_ball(spec("solid", element="tet", nu=0.49, mesh_size=0.01)).nodal_pressure
+        assert not make_ball(spec("solid", element="tet", nu=0.45, mesh_size=0.01)).nodal_pressure
+        forced = spec("solid", element="tet", nu=0.3, mesh_size=0.01, nodal_pressure=True)
+        assert make_ball(forced).nodal_pressure
+    plain = spec("solid", element="tet", nu=0.49, mesh_size=0.01, nodal_pressure=False)
+    with pytest.warns(UserWarning, match=r"nu = 0.49 on linear tetrahedra with ball.nodal"):
+        assert not make_ball(plain).nodal_pressure
+    monkeypatch.undo()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        brick = make_ball(spec("solid", element="hex", nu=0.49, mesh_size=0.01))
+        assert not brick.nodal_pressure  # B-bar bricks
+    with pytest.raises(BallError, match=r"ball.nodal_pressure = 'yes'"):
+        spec("solid", nodal_pressure="yes")
 
 
 def test_hollow_hex_expands_as_lames_thick_sphere():

@@ -118,3 +118,73 @@ def test_hex8_mean_dilatation_does_not_lock(nu):
     assert err[True] <= 0.03  # 2.2-2.6 % at every nu on this mesh
     if nu >= 0.49:
         assert err[False] >= 5 * err[True]  # 15 % and 62 % locked
+
+
+@pytest.fixture(scope="module")
+def tet_shell():
+    """The thick sphere filled by pytetwild, as a tet ball is (no crossed pattern: the 24
+    tetrahedra of :func:`fem.hex_to_tet` hardly lock)."""
+    outer = fem.sphere_surface(B, (0.0, 0.0, 0.0), 3)
+    inner = fem.sphere_surface(A, (0.0, 0.0, 0.0), 3)
+    pts = np.concatenate([outer[0], inner[0]])
+    tri = np.concatenate([outer[1], inner[1][:, ::-1] + len(outer[0])])
+    return fem.tetrahedralize((pts, tri), 0.1)
+
+
+@pytest.mark.parametrize("nu", [0.3, 0.49, 0.499])
+def test_tet4_average_nodal_pressure_does_not_lock(nu, tet_shell):
+    """Bonet and Burton's average nodal pressure tetrahedra: the error stays that of nu 0.3
+    as nu nears 1/2, where plain linear tetrahedra lock; the stress follows the same
+    strain (its mean pressure at mid-wall matches Lame's)."""
+
+    def exact(r):
+        return P * A**3 / (B**3 - A**3) * ((1 - 2 * nu) * r / E + (1 + nu) * B**3 / (2 * E * r**2))
+
+    mesh = tet_shell
+    mat = fem.LinearElastic(E, nu)
+    inner = {
+        kind: np.linalg.norm(mesh.points[f].mean(axis=1), axis=1) < 0.5 * (A + B)
+        for kind, f in mesh.boundary.faces.items()
+    }
+    f = fem.pressure_load(mesh, mesh.boundary.subset(inner), P)
+    r = np.linalg.norm(mesh.points, axis=1)
+    outer = r > B * (1 - 1e-6)
+    ratio, scatter = {}, {}
+    vol = mesh.volumes["tetra"]
+    exact_mean = P * A**3 / (B**3 - A**3)  # Lame: the mean stress is uniform
+    for nodal in (True, False):
+        k = fem.assemble_stiffness(mesh, mat, nodal_pressure=nodal)
+        assert abs(k - k.T).max() <= 1e-9 * abs(k).max()
+        u = fem.StaticSolver(k, points=mesh.points).solve(f).u.reshape(-1, 3)
+        ur = np.einsum("ij,ij->i", u, mesh.points) / r
+        ratio[nodal] = ur[outer].mean() / exact(B)
+        s = fem.cell_stress(mesh, mat, u.ravel(), nodal_pressure=nodal)["tetra"]
+        mean = np.trace(s, axis1=1, axis2=2) / 3
+        assert (vol * mean).sum() / vol.sum() == pytest.approx(exact_mean, rel=0.01)
+        scatter[nodal] = mean.std() / exact_mean
+    assert abs(ratio[True] - 1) < 0.06  # as plain tets at nu 0.3
+    assert scatter[True] < 0.5  # the pressure field stays smooth (plain tets: 12 at 0.499)
+    if nu >= 0.49:
+        assert ratio[False] < ratio[True] - 0.05  # plain tets lock: too stiff
+        assert scatter[False] > 5 * scatter[True]
+
+
+def test_tet4_average_nodal_pressure_passes_the_patch_test():
+    """An affine displacement: the same strain everywhere, with or without nodal pressures,
+    and no force at the inner nodes."""
+    mesh = fem.hex_to_tet(fem.box_mesh((1.0, 1.0, 1.0), (3, 3, 3)))
+    grad = np.array([[1e-3, 2e-4, -3e-4], [5e-4, -2e-3, 1e-4], [0.0, 3e-4, 1.5e-3]])
+    u = mesh.points @ grad.T
+    mat = fem.LinearElastic(E, 0.49)
+    k = fem.assemble_stiffness(mesh, mat, nodal_pressure=True)
+    f = (k @ u.ravel()).reshape(-1, 3)
+    x = mesh.points
+    inside = np.all((x > 1e-9) & (x < 1 - 1e-9), axis=1)
+    assert inside.any() and np.abs(f[inside]).max() <= 1e-9 * np.abs(f).max()
+    eps = fem.gauss_strain(mesh, u.ravel(), nodal_pressure=True)["tetra"]
+    assert np.allclose(eps, 0.5 * (grad + grad.T), atol=1e-15)
+    assert np.allclose(fem.nodal_dilatation(mesh, u.ravel()), np.trace(grad))
+    # a rigid motion stores no energy
+    rot = np.array([[0.0, -1.0, 0.5], [1.0, 0.0, -0.2], [-0.5, 0.2, 0.0]]) * 1e-3
+    v = (mesh.points @ rot.T + [1e-3, -2e-3, 0.5e-3]).ravel()
+    assert abs(v @ (k @ v)) <= 1e-12 * abs(k).max() * (v @ v)
