@@ -263,7 +263,7 @@ class _Frame:
             local = self.local[slave.name][p.nodes]
             sel = slave_zone(slave.mesh.points, p.nodes, p.gap, first, local)
             # the first set's open rows of nodes near the master (NEAR)
-            sel |= (p.gap >= -self.tol(pair, p.nodes)) & (p.gap < NEAR * local)
+            sel |= (p.gap >= -self.tol(pair, p.nodes)) & (p.gap < self.near_band(pair, p, NEAR))
             near, gap = p.nodes[sel], p.gap[sel]
             if not near.size:
                 continue
@@ -290,6 +290,18 @@ class _Frame:
         self.timings["factorisation"] = sum(
             b.solver.factor_time - before[b.name] for b in self.bodies
         )
+
+    def near_band(self, pair: ContactPair, p: Penetrations, near: float) -> NDArray[np.float64]:
+        """How far outside a node joins the first set, open (m, per node).
+
+        ``near`` of its element size, or the pair's deepest overlap where that is more
+        (up to one element). Two bodies pressed together by an overlap ``d`` close the
+        nodes whose gap is less than about ``d`` (a Hertz patch); taking them all keeps
+        the first solve's patch, and the updates it takes, the same on every mesh.
+        """
+        local = self.local[pair.slave.name][p.nodes]
+        deepest = float(np.max(-p.gap, initial=0.0))
+        return np.minimum(np.maximum(near * local, deepest), local)
 
     def slides(self, states: dict[str, BodyState]) -> dict[str, NDArray[np.float64]]:
         """Each free body's rigid translation in ``states`` (m)."""
@@ -511,8 +523,8 @@ class _Frame:
             depth = max(depth, float(np.max(-p.gap, initial=0.0)))
             hit = fresh & (_first(p.gap, tol) if touching else (p.gap < -tol))
             if touching and near > 0.0:
-                local = self.local[pair.slave.name][p.nodes]
-                hit |= fresh & (p.gap >= -tol) & (p.gap < near * local)
+                # every node inside or near: the unilateral solve closes what must push
+                hit |= fresh & (p.gap < self.near_band(pair, p, near))
             j = self.reverse[i]
             if j >= 0 and hit.any():
                 # node on node: a slave node whose closest point is a master vertex that

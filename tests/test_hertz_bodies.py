@@ -203,14 +203,22 @@ def test_one_way_pairs_agree():
 # --- the seed loop -------------------------------------------------------------------------
 
 
-def test_seed_loop_converges_with_a_soft_dirichlet_sphere():
+def test_seed_loop_converges_with_a_soft_dirichlet_sphere(monkeypatch):
     """One-way pairs, the Dirichlet (top) sphere 100x softer: contact space's answer."""
-    ref = check("sphere-block", 0.01, both=False)
+    import contact.iteration as iteration
+
+    near = check("sphere-block", 0.01, both=False)
+    # with the rows taken where the nodes are first found inside, as the seed loop takes
+    # them (contact space's first set also holds the nodes near contact, linearised at
+    # rest: 4e-5 apart)
+    monkeypatch.setattr(iteration, "NEAR", 0.0)
+    ref = hertz_bodies_check(scene("sphere-block", 0.01, both=False))
     sc = scene("sphere-block", 0.01, both=False)
     chk = hertz_bodies_check(sc, ContactSettings(algorithm="seed", tolerance=1e-9))
     assert chk.result.converged and chk.result.iterations <= 10
     assert chk.patch.force == pytest.approx(ref.patch.force, rel=1e-6)
     assert chk.patch.contact_radius == pytest.approx(ref.patch.contact_radius, rel=1e-6)
+    assert chk.patch.force == pytest.approx(near.patch.force, rel=1e-3)
 
 
 @pytest.mark.parametrize("both", [False, True])
@@ -280,5 +288,10 @@ def test_ratio_sweep_and_refinements(name):
                     f = res.total_contact_force("top")[2]
                     assert f == pytest.approx(ref.result.total_contact_force("top")[2], rel=1e-2)
                 else:
-                    assert res.stop_reason in ("diverged", "iteration limit", "cycling")
+                    # the same limitation, reported as a stop reason when the seed's step
+                    # 3 meets dependent rows after its first iteration (two spheres meshed
+                    # alike touch node to node at their poles, one-way pairs too)
+                    assert res.stop_reason in ("diverged", "iteration limit", "cycling") or (
+                        res.stop_reason.startswith("singular contact rows on top")
+                    ), res.stop_reason
     print(name, record)
