@@ -82,10 +82,11 @@ RELINEARISE = 8
 #: rest of the tolerance is for the linearisation's error, so that the nonlinear measure
 #: does not find the node inside and take it again.
 LCP_TOLERANCE = 0.5
-#: The first contact set of contact space also holds, open, the nodes outside their
-#: master within this many of their element sizes: a free body's first solve would
-#: otherwise slide it through what it nearly touches (a bowl's walls that touch the
-#: ball between nodes, a palm half a millimetre above a ball the fingers squeeze).
+#: The first contact set of contact space holds every node inside its master or outside
+#: within this many of its element sizes (or the pair's deepest overlap, see
+#: ``_Frame.near_band``), as candidates: a free body's first solve would otherwise slide
+#: it through what it nearly touches (a bowl's walls that touch the ball between nodes, a
+#: palm half a millimetre above a ball the fingers squeeze).
 NEAR = 0.5
 #: A solve that moves a free body rigidly by more than this many element sizes (the
 #: frame's largest) jumped: new rows are linearised where it was before (a safety net
@@ -470,10 +471,11 @@ class _Frame:
             node has moved half an element off its master, or out of reach, are dropped
             instead of counting as contacts that left their facets.
         near : float
-            With ``touching``, also take the nodes outside their master within this many
-            of their element sizes (candidates the unilateral solve leaves open unless the
-            bodies close on them: a free body's first solve cannot slide it through what
-            it nearly touches).
+            With ``touching``, take every node inside its master or outside it within
+            :meth:`near_band` (``near`` of its element size, or the pair's deepest
+            overlap): candidates the unilateral solve closes or leaves open, so that a
+            free body's first solve cannot slide it through what it nearly touches, and
+            the patch of two pressed bodies is taken whole.
         before : (dict of str to ndarray, float), optional
             The displacements before a solve that moved a free body rigidly by more
             than half an element, and how far (m). New rows of deformable masters are
