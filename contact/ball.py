@@ -23,7 +23,16 @@ import fem
 
 from .errors import ContactError
 
-__all__ = ["LOCKING_NU", "RADIUS_TOL", "STRAIN_WARN", "Ball", "BallError", "BallSpec", "make_ball"]
+__all__ = [
+    "LOCKING_NOTE",
+    "LOCKING_NU",
+    "RADIUS_TOL",
+    "STRAIN_WARN",
+    "Ball",
+    "BallError",
+    "BallSpec",
+    "make_ball",
+]
 
 #: Boundary nodes of a ball read from a file must lie within this fraction of the radius
 #: of their sphere (and within a quarter of a hollow ball's wall thickness).
@@ -36,6 +45,11 @@ LOCKING_NU = 0.45
 #: A hollow ball whose internal pressure alone strains its wall by more than this (Lame's
 #: thick sphere) is beyond the small strains linear elasticity describes: a warning.
 STRAIN_WARN = 0.05
+#: What plain linear tetrahedra do near nu = 1/2, for the warnings (ball and flesh).
+LOCKING_NOTE = (
+    "they lock as nu nears 1/2 and come out too stiff (on Lame's thick sphere 7 % at "
+    "nu = 0.45, 16 % at 0.49)"
+)
 log = logging.getLogger(__name__)
 _ICO_EDGE = 4.0 / math.sqrt(10.0 + 2.0 * math.sqrt(5.0))  # icosahedron edge / circumradius
 
@@ -333,9 +347,8 @@ def make_ball(spec: BallSpec) -> Ball:
     elif not nodal and tets and spec.nu > LOCKING_NU:
         warnings.warn(
             f"ball.material.nu = {spec.nu:g} on linear tetrahedra with ball.nodal_pressure "
-            "= false: they lock as nu nears 1/2 and the ball comes out too stiff (on Lame's "
-            "thick sphere 7 % at nu = 0.45, 16 % at 0.49); averaged nodal pressures (the "
-            'default) or element = "hex" (B-bar bricks) do not lock',
+            f"= false: {LOCKING_NOTE}; averaged nodal pressures (the default) or element = "
+            '"hex" (B-bar bricks) do not lock',
             stacklevel=2,
         )
     strain = spec.pressure_strain

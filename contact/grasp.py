@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 
 import fem
 
-from .ball import LOCKING_NU, Ball, make_ball
+from .ball import LOCKING_NOTE, LOCKING_NU, Ball, make_ball
 from .body import ElasticBody
 from .errors import ContactError
 from .geometry import Plane
@@ -96,9 +96,8 @@ class GraspRun:
             self.flesh = fem.LinearElastic(hs.flesh.E, hs.flesh.nu, density=hs.flesh.density)
             if hs.flesh.nu > LOCKING_NU:  # the flesh is linear tetrahedra
                 warnings.warn(
-                    f"hand.flesh.nu = {hs.flesh.nu:g} on the flesh's linear tetrahedra: they "
-                    "lock as nu nears 1/2 and the flesh comes out too stiff (on Lame's thick "
-                    "sphere 7 % at nu = 0.45, 16 % at 0.49)",
+                    f"hand.flesh.nu = {hs.flesh.nu:g} on the flesh's linear tetrahedra: "
+                    f"{LOCKING_NOTE}",
                     stacklevel=2,
                 )
             names = self.hand.skeleton.bone_names

@@ -41,6 +41,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+import scipy.sparse as sp
 from numpy.typing import NDArray
 
 import fem
@@ -263,8 +264,8 @@ class _Frame:
             first = _first(p.gap, self.tol(pair, p.nodes))  # as new_rows takes it
             local = self.local[slave.name][p.nodes]
             sel = slave_zone(slave.mesh.points, p.nodes, p.gap, first, local)
-            # the first set's open rows of nodes near the master (NEAR)
-            sel |= (p.gap >= -self.tol(pair, p.nodes)) & (p.gap < self.near_band(pair, p, NEAR))
+            # and every node the first set holds (inside, or within the near band)
+            sel |= p.gap < self.near_band(pair, p, NEAR)
             near, gap = p.nodes[sel], p.gap[sel]
             if not near.size:
                 continue
@@ -313,7 +314,7 @@ class _Frame:
                 out[b.name] = (b.solver.modes[:, :3] @ rigid[:3]).reshape(-1, 3)[0]
         return out
 
-    def slipping(self, states: dict[str, BodyState], broken: int) -> str:
+    def slipping(self, moves: dict[str, NDArray[np.float64]], broken: int) -> str:
         """The stop reason when contacts in the set have lost their masters.
 
         Frictionless contacts hold a free body only where their normals enclose it; where
@@ -321,12 +322,12 @@ class _Frame:
         slides it rigidly along the open direction until its linearised contacts
         balance, so far that the contact nodes have left their facets. Unless something
         it slid into holds it (see :func:`_contact_space`), the frame stops: the body
-        slips out.
+        slips out. ``moves``: the bodies' rigid translations (:meth:`slides`).
         """
-        moves = [(float(np.linalg.norm(m)), n, m) for n, m in self.slides(states).items()]
+        sizes = [(float(np.linalg.norm(m)), n, m) for n, m in moves.items()]
         how = ""
-        if moves:
-            dist, name, move = max(moves, key=lambda m: m[0])
+        if sizes:
+            dist, name, move = max(sizes, key=lambda m: m[0])
             d = move / max(dist, 1e-300)
             how = f"{name} slid {dist * 1e3:.3g} mm along [{d[0]:.2f}, {d[1]:.2f}, {d[2]:.2f}]; "
         return (
@@ -335,7 +336,10 @@ class _Frame:
         )
 
     def pushed_out(
-        self, rows: ContactRows, lam: NDArray[np.float64], states: dict[str, BodyState]
+        self,
+        e: dict[str, sp.csr_matrix],
+        lam: NDArray[np.float64],
+        moves: dict[str, NDArray[np.float64]],
     ) -> str:
         """The stop reason of a free body the contacts pushed off, or "" if none was.
 
@@ -343,11 +347,10 @@ class _Frame:
         and that no contact pushes at the end was pushed out of contact: frictionless
         contacts that do not enclose it (fingers closing on a ball with nothing behind
         it) push it away until they open. Any place further along balances too, so the
-        frame does not say where it is.
+        frame does not say where it is. ``e`` are the rows' matrices (:meth:`matrices`),
+        ``moves`` the bodies' rigid translations (:meth:`slides`).
         """
-        e = self.matrices(rows) if len(rows) else {}
-        for name, move in self.slides(states).items():
-            body = next(b for b in self.bodies if b.name == name)
+        for name, move in moves.items():
             dist = float(np.linalg.norm(move))
             if dist <= PUSHED_OUT * float(self.local[name].max()):
                 continue  # a nudge (a ball settling in a frictionless bowl)
@@ -356,32 +359,35 @@ class _Frame:
                 continue
             d = move / dist
             return (
-                f"not held: {body.name} pushed out of contact, {dist * 1e3:.3g} mm along "
+                f"not held: {name} pushed out of contact, {dist * 1e3:.3g} mm along "
                 f"[{d[0]:.2f}, {d[1]:.2f}, {d[2]:.2f}], and no contact holds it "
                 "(frictionless contacts hold a free body only where they enclose it)"
             )
         return ""
 
     def holds(
-        self, rows: ContactRows, lam: NDArray[np.float64], moves: dict[str, NDArray[np.float64]]
+        self,
+        e: dict[str, sp.csr_matrix],
+        lam: NDArray[np.float64],
+        moves: dict[str, NDArray[np.float64]],
     ) -> bool:
         """Whether the pushing rows hold every free body against its slide ``moves``.
 
         A body that slid so far that contacts left their facets is held once the normals
         of the rows that push it span the slide's direction: a wall or another finger
         caught it. Otherwise it slid out of reach and the forces that remain (none, or
-        only those in other directions) do not say where it is.
+        only those in other directions) do not say where it is. ``e`` as for
+        :meth:`pushed_out`.
         """
-        e = self.matrices(rows) if len(rows) else {}
+        modes = {b.name: b.solver.modes for b in self.bodies}
         for name, move in moves.items():
-            body = next(b for b in self.bodies if b.name == name)
             dist = float(np.linalg.norm(move))
             if dist == 0.0:
                 continue
             eb = e.get(name)
             if eb is None or not (lam > 0).any():
                 return False
-            t = eb[lam > 0] @ body.solver.modes[:, :3]  # the pushing rows' directions
+            t = eb[lam > 0] @ modes[name][:, :3]  # the pushing rows' directions
             _, sv, vt = np.linalg.svd(t, full_matrices=False)
             span = vt[sv > 1e-6 * sv.max()] if sv.size and sv.max() > 0 else np.zeros((0, 3))
             if np.linalg.norm(span @ (move / dist)) < HELD_COS:
@@ -933,7 +939,7 @@ def _contact_space(frame: _Frame) -> FrameResult:
         grown, added, depth = frame.new_rows(rows, u, False, idle=~closed, before=before)
         if frame.broken:
             slides += 1
-            slid = slid or (frame.slipping(states, frame.broken), frame.slides(states))
+            slid = slid or (frame.slipping(moves, frame.broken), moves)
             if not added or slides > SLIDES:
                 # nothing the body slid into holds it (or it keeps sliding): it slips out
                 rec = _record(it, rows, 0, 0, change, depth, e, lam, frame, 1.0, 0.0, n_closed)
@@ -961,9 +967,9 @@ def _contact_space(frame: _Frame) -> FrameResult:
             break
         if not added:
             converged, stop = True, "converged"
-            if slid is not None and not frame.holds(rows, lam, slid[1]):
+            if slid is not None and not frame.holds(e, lam, slid[1]):
                 converged, stop = False, slid[0]
-            elif out := frame.pushed_out(rows, lam, states):
+            elif out := frame.pushed_out(e, lam, moves):
                 converged, stop = False, out
             break
         start = _carried(rows, lam, grown)

@@ -119,7 +119,7 @@ def test_rows_found_after_a_jump_are_linearised_where_the_ball_was(tmp_path, mon
 
 
 @functools.cache
-def pad_scene(walled=True, table=True):
+def pad_scene(walled=True, on_table=True):
     """A ball on a table (or none), pressed from above and the side by a small pad (back
     fixed), towards a wall 1 mm off (or none)."""
     r = 0.02
@@ -143,10 +143,9 @@ def pad_scene(walled=True, table=True):
         prescribed=fem.node_dofs(back),
         supports={"back": back},
     )
-    table_ = table
     table = Plane([0, 0, 0], [0, 0, 1], name="table")
     wall = Plane([r + 0.001, 0, 0], [-1, 0, 0], name="wall")
-    planes = [p for p, keep in ((table, table_), (wall, walled)) if keep]
+    planes = [p for p, keep in ((table, on_table), (wall, walled)) if keep]
     pairs = [ContactPair(ball, p) for p in planes]
     pairs += [ContactPair(ball, pad), ContactPair(pad, ball)]
     return [ball, pad], pairs, planes
@@ -184,7 +183,7 @@ def test_a_ball_a_small_pad_pushes_away_is_not_held():
     # with nothing else the pad pushes the ball away until its contacts open; any place
     # further along balances too, so the frame cannot say where the ball is, and says so
     # instead of "converged" with no force
-    bodies, pairs, planes = pad_scene(walled=False, table=False)
+    bodies, pairs, planes = pad_scene(walled=False, on_table=False)
     res = solve_frame(bodies, pairs, planes, ContactSettings())
     assert not res.converged
     assert res.stop_reason.startswith("not held: ball pushed out of contact, ")
