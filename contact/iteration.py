@@ -885,12 +885,13 @@ def solve_frame(
         Bad settings, or a free body that nothing holds.
     """
     settings = settings or ContactSettings()
-    frame = _Frame(bodies, planes, pairs, settings)
-    frame.callback = callback
-    frame.mark_zones()
-    if settings.algorithm == "seed":
-        return _seed(frame, dirichlet or frame.bodies[0].name)
-    return _contact_space(frame)
+    with fem.sparse_threads():  # the cores are PARDISO's: no spinning OpenBLAS workers
+        frame = _Frame(bodies, planes, pairs, settings)
+        frame.callback = callback
+        frame.mark_zones()
+        if settings.algorithm == "seed":
+            return _seed(frame, dirichlet or frame.bodies[0].name)
+        return _contact_space(frame)
 
 
 def _contact_space(frame: _Frame) -> FrameResult:

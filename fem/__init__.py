@@ -41,7 +41,7 @@ from .nodalpressure import nodal_dilatation, nodal_pressure_correction
 from .pvmesh import from_pyvista, to_pyvista
 from .statics import StaticSolution, StaticSolver, check_balance, rigid_body_modes
 from .stress import cell_stress, gauss_strain, nodal_average, von_mises
-from .threads import dense_threads
+from .threads import dense_threads, sparse_threads
 
 __version__ = "0.1.0"
 
@@ -73,6 +73,7 @@ __all__ = [
     "check_balance",
     "check_surface",
     "dense_threads",
+    "sparse_threads",
     "elasticity_matrix",
     "element_dofs",
     "element_stiffness",
