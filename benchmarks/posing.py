@@ -48,7 +48,15 @@ from ._common import (
     write_markdown,
 )
 
-__all__ = ["FRACTIONS", "GOAL_S", "SEQ_FPS", "run", "sample_range", "sample_sequences"]
+__all__ = [
+    "FRACTIONS",
+    "GOAL_S",
+    "SEQ_FPS",
+    "run",
+    "sample_range",
+    "sample_sequences",
+    "sequence_keys",
+]
 
 #: Goal: seconds to pose one frame of the fine hand.
 GOAL_S = 0.2
@@ -238,6 +246,25 @@ def sample_range(poser: HandPoser, fraction: float, n_random: int, seed: int = 0
     }
 
 
+def sequence_keys(
+    limits: dict[str, tuple[float, float]], fraction: float, rng: np.random.Generator
+) -> list[dict]:
+    """The keys of one sequence: rest at time 0, then :data:`SEQ_KEYS` random keys.
+
+    Every angle is keyed at 0 (rest) at the start: a key that leaves an angle out does
+    not key it, and before its first key an angle holds that key's value (an empty first
+    key would start the sequence at the first random pose, posed cold, and hold it for a
+    second).
+    """
+    keys = [{"time": 0.0, "angles": dict.fromkeys(limits, 0.0)}]
+    for k in range(SEQ_KEYS):
+        angles = {
+            n: float(rng.uniform(fraction * lo, fraction * hi)) for n, (lo, hi) in limits.items()
+        }
+        keys.append({"time": float(k + 1), "angles": angles})
+    return keys
+
+
 def sample_sequences(poser: HandPoser, fraction: float, n_sequences: int, seed: int = 0) -> dict:
     """Pose keyframed sequences frame by frame, cold and warm-started.
 
@@ -261,17 +288,7 @@ def sample_sequences(poser: HandPoser, fraction: float, n_sequences: int, seed: 
         m: {"times": [], "steps": 0, "quality": np.inf, "inverted": 0} for m in ("cold", "warm")
     }
     for _ in range(n_sequences):
-        keys = [{"time": 0.0, "angles": {}}] + [
-            {
-                "time": float(k + 1),
-                "angles": {
-                    n: float(rng.uniform(fraction * lo, fraction * hi))
-                    for n, (lo, hi) in limits.items()
-                },
-            }
-            for k in range(SEQ_KEYS)
-        ]
-        frames = Keyframes(hand.skeleton, keys)
+        frames = Keyframes(hand.skeleton, sequence_keys(limits, fraction, rng))
         with warnings.catch_warnings():  # the spline's overshoots, clamped
             warnings.simplefilter("ignore", RuntimeWarning)
             poses = [frames.pose(t) for t in np.arange(SEQ_KEYS * SEQ_FPS + 1) / SEQ_FPS]

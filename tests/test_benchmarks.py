@@ -32,3 +32,24 @@ def test_benchmarks_quick(tmp_path):
     assert all(abs(float(r["force_err_pct"])) < 3.0 for r in rows)
     rows = list(csv.DictReader((tmp_path / "posing.csv").open()))
     assert all(r["inverted_poses"] == "0" and float(r["min_quality"]) > 0 for r in rows)
+
+
+def test_posing_sequences_start_at_rest_and_move_at_once():
+    """Every angle is keyed at rest at time 0: the sequence leaves rest from the first frame.
+
+    (An empty first key keys nothing: the first random key would be held from time 0.)
+    """
+    import numpy as np
+
+    from benchmarks.posing import SEQ_FPS, sequence_keys
+    from contact.hand import load_hand
+    from contact.keyframes import Keyframes
+
+    sk = load_hand("coarse").skeleton
+    keys = sequence_keys(sk.limits, 1.0, np.random.default_rng(0))
+    frames = Keyframes(sk, keys)
+    start, next_ = frames.pose(0.0), frames.pose(1.0 / SEQ_FPS)
+    assert set(start) == set(sk.limits)
+    assert all(v == 0.0 for v in start.values())
+    assert max(abs(v) for v in next_.values()) > 0.1  # degrees, moving already
+    assert frames.pose(1.0) == keys[1]["angles"]
