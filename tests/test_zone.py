@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from contact.zone import RING, master_zone, slave_zone
+from contact.zone import APPROACH, RING, master_zone, slave_zone
 
 
 def grid(h=1.0, n=21):
@@ -33,7 +33,8 @@ def test_without_overlap_the_zone_is_around_the_closest_approach():
     r = np.linalg.norm(pts[:, :2], axis=1)
     gap = 0.5 + r**2 / 40.0  # half an element apart at the closest
     zone = slave_zone(pts, nodes, gap, np.zeros(len(pts), bool), np.ones(len(pts)))
-    core = gap <= 0.5 + 1.0  # within one element of the closest approach: r <= 6.3
+    core = gap <= 0.5 + APPROACH  # within APPROACH elements of the closest approach
+    assert 0 < core.sum() < len(pts)
     d = np.min(np.linalg.norm(pts[:, None, :] - pts[core][None], axis=2), axis=1)
     assert np.array_equal(zone, d <= RING)
     assert zone[np.argmin(r)] and not zone[np.argmax(r)]
