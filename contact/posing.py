@@ -681,39 +681,53 @@ class FleshRelaxer:
         Measured on the fine hand's wrist at three quarters of its limits: from the
         mapping's fold (536 inverted tetrahedra) 27 Newton steps, from its fill (320
         inverted, a third of the energy) 4. ``warm``: a third start (see
-        :meth:`relax_quality`), competing on energy with the two others: where it is
-        the lowest, it is first mended around its degraded tetrahedra alone
-        (:meth:`_mend_locally`); failing that, Newton's method runs on the whole part
-        from it, and a run that leaves a tetrahedron below :data:`_WARM_RETRY` of the
-        floor is followed by the next start. ``q``: the qualities at ``x``, kept up to
-        date. Returns the tetrahedra left inverted.
+        :meth:`relax_quality`): where its energy is below the mapping's, it is mended
+        around its degraded tetrahedra alone (:meth:`_mend_locally`; the fill, about
+        12 ms on the fine hand's wrist, is then not made). Where those reach across the
+        whole part, it competes on energy with the two others, and a Newton run from it
+        that leaves a tetrahedron below :data:`_WARM_RETRY` of the floor is followed by
+        the next start. ``q``: the qualities at ``x``, kept up to date. Returns the
+        tetrahedra left inverted.
         """
         start = x[free].copy()
         core = self._ring(np.unique(self.tets[bad]), 1)
-        self._fill(x, core[~self.fixed[core]])
-        filled = x[free].copy()
+        core = core[~self.fixed[core]]
+        filled: NDArray[np.float64] | None = None  # made when a part first needs it
+
+        def fill() -> NDArray[np.float64]:
+            nonlocal filled
+            if filled is None:
+                y = x.copy()
+                y[free] = start
+                self._fill(y, core)
+                filled = y[free]
+            return filled
+
         warm = None if warm is None else np.asarray(warm, dtype=np.float64)
         for part in self._parts(free):
             at = np.searchsorted(free, part)
             cells = self._cells(part)
             floor = self._floor[cells]
             patch = self._gather(cells)
-            starts = [filled[at], start[at]]
+            x[part] = start[at]
+            e_map = self._energy(x, patch, self.delta)
+            if warm is not None:
+                x[part] = warm[part]
+                e_warm = self._energy(x, patch, self.delta)
+                # below the mapping's energy: mended where it is degraded (a part left
+                # inverted goes to the next, wider pass)
+                if e_warm < e_map and self._mend_locally(x, part, patch, floor) is not None:
+                    continue
+            starts = [fill()[at], start[at]]
+            x[part] = starts[0]
+            energies = [self._energy(x, patch, self.delta), e_map]
             if warm is not None:
                 starts.append(warm[part])
-            energies = []
-            for y in starts:
-                x[part] = y
-                energies.append(self._energy(x, patch, self.delta))
+                energies.append(e_warm)
             order = np.argsort(energies, kind="stable")
             best = None
             for i in order:
                 x[part] = starts[i]
-                if i == 2:  # the warm start: mended where it is degraded, if it can be
-                    mended = self._mend_locally(x, part, patch, floor)
-                    if mended is not None:
-                        best = (mended, x[part].copy())
-                        break
                 self._newton(x, part)
                 qp = tet_quality(x, patch["tets"])
                 key = (int((qp <= 0.0).sum()), -float(qp.min()))
@@ -724,6 +738,7 @@ class FleshRelaxer:
                 # kept (see _WARM_RETRY)
                 if key[0] == 0 and not (i == 2 and (qp <= _WARM_RETRY * floor).any()):
                     break
+            assert best is not None
             x[part] = best[1]
         self._requality(q, x, free)
         return int((q <= 0.0).sum())
