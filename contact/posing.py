@@ -269,7 +269,7 @@ def _block_pattern(lt: NDArray[np.int64], nodes: int) -> tuple[NDArray[np.int64]
     both = (lt[:, :, None] >= 0) & (lt[:, None, :] >= 0)  # (m, 4, 4)
     key = lt[:, :, None] * nodes + lt[:, None, :]
     key[~both] = -1
-    pairs, pslot = np.unique(key, return_inverse=True)  # pairs[0] = -1 if any is held
+    pairs, pslot = _unique_pairs(key, nodes)  # pairs[0] = -1 if any is held
     pslot = pslot.reshape(m, 4, 4)
     held = int(pairs[0] < 0)
     pairs = pairs[held:]
@@ -290,6 +290,29 @@ def _block_pattern(lt: NDArray[np.int64], nodes: int) -> tuple[NDArray[np.int64]
     own = np.flatnonzero(brow == bcol)
     pair_slot = (pslot - held) % (len(pairs) + 1)  # the held entries' -1: one past the end
     return slot, indptr, indices, at[own].ravel(), pair_slot.ravel(), at[:, ij, ij]
+
+
+#: Patches of up to this many free nodes find their node pairs on a table of every pair
+#: (a 4 MB mask and a 16 MB index at most) instead of sorting them.
+_PAIR_TABLE = 2048
+
+
+def _unique_pairs(key: NDArray[np.int64], nodes: int) -> tuple[NDArray[np.int64], ...]:
+    """``np.unique(key, return_inverse=True)`` of node-pair keys in ``-1 .. nodes**2 - 1``.
+
+    On a patch of up to :data:`_PAIR_TABLE` nodes, marked on a table of every pair
+    rather than sorted (a 7,747-tetrahedron patch of 1,014 nodes: 0.9 against 12.6 ms).
+    """
+    if nodes > _PAIR_TABLE:
+        pairs, inverse = np.unique(key, return_inverse=True)
+        return pairs, inverse.ravel()
+    k = key.ravel() + 1  # -1 (a held node) to 0
+    mark = np.zeros(nodes * nodes + 1, dtype=bool)
+    mark[k] = True
+    at = np.flatnonzero(mark)
+    table = np.zeros(nodes * nodes + 1, dtype=np.int32)
+    table[at] = np.arange(len(at), dtype=np.int32)
+    return at - 1, table[k].astype(np.int64)
 
 
 def _solve(

@@ -404,3 +404,22 @@ def test_a_warm_start_is_mended_around_its_degraded_tetrahedra_alone(hand, poser
     ring = relaxer._ring(np.unique(relaxer.tets[low]), relaxer.rings)
     assert node in moved and np.isin(moved, ring).all()
     assert len(moved) < 0.5 * len(moved_cold)
+
+
+def test_unique_pairs_on_the_table_equal_numpys_sort(monkeypatch):
+    """Node-pair keys (``-1`` for a held node) found on the table and by np.unique agree."""
+    from contact import posing
+
+    rng = np.random.default_rng(2)
+    nodes = 50
+    lt = rng.integers(-1, nodes, size=(300, 4))
+    both = (lt[:, :, None] >= 0) & (lt[:, None, :] >= 0)
+    key = lt[:, :, None] * nodes + lt[:, None, :]
+    key[~both] = -1
+    pairs, inverse = np.unique(key, return_inverse=True)
+    for table in (posing._PAIR_TABLE, nodes - 1):  # the table, then the sort
+        monkeypatch.setattr(posing, "_PAIR_TABLE", table)
+        p, inv = posing._unique_pairs(key, nodes)
+        np.testing.assert_array_equal(p, pairs)
+        np.testing.assert_array_equal(inv, inverse.ravel())
+        np.testing.assert_array_equal(p[inv], key.ravel())
