@@ -83,6 +83,7 @@ class GraspRun:
         self.ball = make_ball(sc.ball)
         self.hand = None
         self.poser = None
+        self.nodal_pressure = False
         self.keyframes = None
         if sc.hand is not None:
             from .hand import load_hand
@@ -94,10 +95,15 @@ class GraspRun:
             self.poser = HandPoser(self.hand)
             self.keyframes = Keyframes(self.hand.skeleton, list(hs.keyframes))
             self.flesh = fem.LinearElastic(hs.flesh.E, hs.flesh.nu, density=hs.flesh.density)
-            if hs.flesh.nu > LOCKING_NU:  # the flesh is linear tetrahedra
+            # the flesh is linear tetrahedra: averaged nodal pressures where they would
+            # lock, as for a tet ball
+            nodal = hs.nodal_pressure
+            self.nodal_pressure = hs.flesh.nu > LOCKING_NU if nodal is None else nodal
+            if not self.nodal_pressure and hs.flesh.nu > LOCKING_NU:
                 warnings.warn(
-                    f"hand.flesh.nu = {hs.flesh.nu:g} on the flesh's linear tetrahedra: "
-                    f"{LOCKING_NOTE}",
+                    f"hand.flesh.nu = {hs.flesh.nu:g} on the flesh's linear tetrahedra with "
+                    f"hand.nodal_pressure = false: {LOCKING_NOTE}; averaged nodal pressures "
+                    "(the default) do not lock",
                     stacklevel=2,
                 )
             names = self.hand.skeleton.bone_names
@@ -205,6 +211,7 @@ class GraspRun:
             supports=self.bones,
             backend=self.scene.solver.linear_solver,
             contact_faces=self.hand.skin_faces,  # type: ignore[union-attr]
+            nodal_pressure=self.nodal_pressure,
         )
         self._hand_key = key
         self._pose = pose

@@ -135,6 +135,10 @@ class HandScene:
         ``{time, angles, tension, continuity, bias}`` per key, validated against the rig;
         as :class:`contact.Keyframes` takes them.
     auto_flexion : tuple of AutoFlex
+    nodal_pressure : bool or None
+        The flesh's tetrahedra with averaged nodal pressures (no volumetric locking);
+        None: where ``flesh.nu`` is above :data:`contact.ball.LOCKING_NU`, as for a tet
+        ball.
     """
 
     rig: Path
@@ -145,6 +149,7 @@ class HandScene:
     bone_force_limits: dict[str, float]
     keyframes: tuple[dict, ...]
     auto_flexion: tuple[AutoFlex, ...] = ()
+    nodal_pressure: bool | None = None
 
     def limits(self, bone_names: Iterable[str]) -> dict[str, float]:
         """The force limit (N) of each bone: its override, else the global one, else none.
@@ -307,6 +312,7 @@ class Scene:
             "mesh": None if b.mesh is None else str(b.mesh),
             "center": list(b.center),
             "material": {"E": b.E, "nu": b.nu, "density": b.density},
+            "nodal_pressure": b.nodal_pressure,
             "follow": None if self.follow is None else _fields(self.follow),
         }
         hand = None
@@ -324,6 +330,7 @@ class Scene:
                     {**_fields(a), "times": None if a.times is None else list(a.times)}
                     for a in h.auto_flexion
                 ],
+                "nodal_pressure": h.nodal_pressure,
             }
         return {
             "path": str(self.path),
@@ -504,7 +511,7 @@ _BALL = (
 )  # fmt: skip
 _HAND = (
     "rig", "directory", "resolution", "flesh", "bone_force_limit", "bone_force_limits",
-    "keyframe", "auto_flexion",
+    "keyframe", "auto_flexion", "nodal_pressure",
 )  # fmt: skip
 _FLESH = Material(5.0e4, 0.45, 1000.0)
 
@@ -602,6 +609,9 @@ def _read_hand(r: _Reader, data: dict, base: Path) -> tuple[HandScene, Skeleton]
             raise r.fail(where, v, f"unknown bone{hint} (bones: {', '.join(skeleton.bone_names)})")
         limits[bone] = r.number(v, where, positive=True)
     keys = _read_keyframes(r, h["keyframe"], skeleton)
+    nodal = None
+    if "nodal_pressure" in h:
+        nodal = r.boolean(h["nodal_pressure"], "hand.nodal_pressure")
     hand = HandScene(
         rig=rig,
         directory=directory,
@@ -611,6 +621,7 @@ def _read_hand(r: _Reader, data: dict, base: Path) -> tuple[HandScene, Skeleton]
         bone_force_limits=limits,
         keyframes=keys,
         auto_flexion=(),
+        nodal_pressure=nodal,
     )
     return hand, skeleton
 

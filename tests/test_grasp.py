@@ -92,7 +92,11 @@ def test_a_warning_is_one_log_line(tmp_path, capsys, caplog):
     assert (out / "summary.json").is_file()
 
 
-def test_nearly_incompressible_flesh_warns_of_locking(tmp_path):
+def test_nearly_incompressible_flesh_takes_nodal_pressures_or_warns_of_locking(tmp_path):
+    """Flesh above nu 0.45 takes averaged nodal pressures (as a tet ball does); kept plain
+    by ``hand.nodal_pressure = false``, it warns that its tetrahedra lock."""
+    import warnings
+
     from contact.grasp import GraspRun
     from contact.scene import load_scene
 
@@ -101,8 +105,21 @@ def test_nearly_incompressible_flesh_warns_of_locking(tmp_path):
     )
     text = text.replace("center = [-0.007, 0.06, 0.0]", "center = [0.0, 0.06, -0.1]")
     (tmp_path / "s.toml").write_text(text)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        run = GraspRun(load_scene(tmp_path / "s.toml"))
+    hand = run.hand_body(run.angles(0.0))
+    assert run.nodal_pressure and hand.nodal_pressure
+    nodal = hand.solver.factored_matrix.nnz
+    plain_text = text.replace(
+        'resolution = "coarse"', 'resolution = "coarse"\nnodal_pressure = false'
+    )
+    (tmp_path / "p.toml").write_text(plain_text)
     with pytest.warns(UserWarning, match=r"hand.flesh.nu = 0.49 on the flesh's linear tet"):
-        GraspRun(load_scene(tmp_path / "s.toml"))
+        plain = GraspRun(load_scene(tmp_path / "p.toml"))
+    body = plain.hand_body(plain.angles(0.0))
+    assert not body.nodal_pressure
+    assert nodal > 2 * body.solver.factored_matrix.nnz  # the volumetric coupling's fill
 
 
 def test_not_converged_exits_1_and_still_writes(tmp_path, monkeypatch):

@@ -312,6 +312,20 @@ def test_auto_flexion_node_and_every_frame(scene_file) -> None:
     assert not b.first_contact
 
 
+def test_hand_nodal_pressure_key_and_echo(scene_file) -> None:
+    sc = load_scene(scene_file(BASE))
+    assert sc.hand.nodal_pressure is None  # absent: decided by the flesh's nu
+    assert sc.echo()["hand"]["nodal_pressure"] is None
+    assert sc.echo()["ball"]["nodal_pressure"] is None
+    text = edit(
+        BASE,
+        "flesh = { E = 5.0e4, nu = 0.45 }",
+        "flesh = { E = 5.0e4, nu = 0.45 }\nnodal_pressure = true",
+    )
+    sc = load_scene(scene_file(text))
+    assert sc.hand.nodal_pressure is True and sc.echo()["hand"]["nodal_pressure"] is True
+
+
 def test_error_classes() -> None:
     assert issubclass(SceneError, ContactError) and issubclass(SceneError, ValueError)
 
@@ -438,6 +452,9 @@ BAD = [
      ["hand.auto_flexion[0].press = -0.001", "negative"]),
     ("auto-flex-first", "times = [1.0]", 'first_contact = "yes"',
      ["hand.auto_flexion[0].first_contact = 'yes'", "true or false"]),
+    ("hand-nodal", "flesh = { E = 5.0e4, nu = 0.45 }",
+     'flesh = { E = 5.0e4, nu = 0.45 }\nnodal_pressure = "yes"',
+     ["hand.nodal_pressure = 'yes'", "true or false"]),
     ("auto-flex-epsilon", "times = [1.0]", "epsilon = 0.0",
      ["hand.auto_flexion[0].epsilon = 0.0", "positive"]),
     ("gravity", 'description = "a hand, a ball, a table"', "gravity = [0.0, -9.81]",
