@@ -781,11 +781,11 @@ class FleshRelaxer:
 
         ``patch`` and ``floor``: the part's tetrahedra (:meth:`_gather`) and their stop
         floors. Measured on three keyframed sequences of the fine hand from rest (147
-        frames each, 24 a second), against the whole part's Newton runs from the warm
-        start and the two others: at the full limits a frame 0.15 against 0.31 s on
-        average, 0.65 against 2.8 s at most, worst quality 0.0019 against 0.0015; at three
-        quarters of them 0.053 against 0.073 s, at most 0.13 against 0.20 s, 0.0044
-        against 0.0048.
+        frames each, 24 a second), against Newton runs over the whole part from the
+        warm start and, below half the floor, from the two others: at the full limits a
+        frame 0.13 against 0.31 s on average, 0.42 against 2.8 s at most, worst quality
+        0.0016 against 0.0015; at three quarters of them 0.054 against 0.073 s, at most
+        0.13 against 0.20 s, worst quality 0.0043 against 0.0048.
 
         Returns
         -------
