@@ -96,7 +96,10 @@ def solve_lcp(
         A row is open when its gap is at least ``-tol`` (m).
     start : ndarray, shape (m,), optional
         Forces to start from (the last ones, for a set that grew); rows with a positive
-        force start closed. By default every row starts closed, at zero force.
+        force start closed. By default the rows that penetrate without forces start
+        closed (every row where none does), at zero force: rows that start open do not
+        make the first step's equality problem dependent (a node near four planes has
+        four rows on its three DOFs; the hand cup's first set of 287 rows: 4 against 8 ms).
     load_scale : float
         Size of the loads, for the balance check of modes nothing holds.
     max_steps : int, optional
@@ -130,7 +133,9 @@ def _active_set(
     tol_arr = np.broadcast_to(np.asarray(tol, dtype=np.float64), (m,))
     if start is None:
         lam = np.zeros(m)
-        closed = np.ones(m, dtype=bool)
+        closed = rhs > tol_arr  # the rows that penetrate without forces
+        if not closed.any():
+            closed[:] = True
     else:
         lam = np.maximum(np.asarray(start, dtype=np.float64), 0.0)
         closed = lam > 0
