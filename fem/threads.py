@@ -97,9 +97,5 @@ def sparse_threads() -> Iterator[None]:
     >>> float(x[0])
     300.0
     """
-    ctrl = _openblas()
-    if ctrl is None:
-        yield
-        return
-    with ctrl.limit(limits=1):
+    with dense_threads(0):  # the limit of small dense work
         yield
