@@ -348,6 +348,35 @@ def test_warm_start_keeps_the_mapping_where_it_is_fair(hand, poser):
         poser.pose(near, start=other)
 
 
+def test_warm_start_turns_the_correction_with_its_segment(hand, poser):
+    """The previous frame's correction is carried by each node's segment: turned by the
+    segment's rotation between the two poses, unchanged where the segment did not turn,
+    its length kept."""
+    deep = {"wrist": 60.0, "index_mcp": 85.0, "index_pip": 95.0, "middle_mcp": 85.0}
+    cold = poser.pose(deep)
+    near = dict(deep, index_pip=80.0, wrist=55.0)
+    tf = hand.skeleton.forward_kinematics(poser.pose(near, check=False).angles)
+    carried = poser._carried(cold, tf)
+    c = cold.correction
+    np.testing.assert_allclose(np.linalg.norm(carried, axis=1), np.linalg.norm(c, axis=1))
+    names = poser.flesh_map.topology.names
+    seg = poser.flesh_map.segment
+    on = np.abs(c).sum(axis=1) > 0
+    turned = 0
+    for b, name in enumerate(names):
+        nodes = np.flatnonzero((seg == b) & on)
+        if not len(nodes):
+            continue
+        rot = tf[name][:3, :3] @ cold.transforms[name][:3, :3].T
+        np.testing.assert_allclose(carried[nodes], c[nodes] @ rot.T, atol=1e-15)
+        if np.abs(rot - np.eye(3)).max() > 1e-3:  # a segment the change of pose turned
+            turned += 1
+            assert np.abs(carried[nodes] - c[nodes]).max() > 1e-2 * np.abs(c[nodes]).max()
+    assert turned >= 2  # the wrist's and the index's at least
+    # the same pose: the correction as it is
+    np.testing.assert_allclose(poser._carried(cold, cold.transforms), c, atol=1e-15)
+
+
 def _sequence_steps(poser, poses, warm):
     steps, worst, previous = 0, np.inf, None
     for angles in poses:
