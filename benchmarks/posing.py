@@ -441,12 +441,14 @@ def _write_report(
             f"the fraction of its limits, one key a second, Kochanek-Bartels), "
             f"{SEQ_FPS} frames a second. Cold: each frame posed on its own, as above. "
             "Warm: from the previous frame's pose (HandPoser.pose with start): its "
-            "relaxer correction added to the new mapping is one more start of each "
+            "relaxer correction, turned with each node's segment, added to the new "
+            "mapping is one more start of each "
             "degraded part, competing on energy with the mapping and its fill; where it "
             "is the lowest, it is mended by Newton's method around its degraded "
             "tetrahedra alone (two rings; from a fresh harmonic fill there too where "
             "that leaves one below half the stop floor), and a part left inverted goes "
-            "to the next, wider pass (FleshRelaxer._mend_locally).",
+            "to the next pass, wider around what is still inverted "
+            "(FleshRelaxer._mend_locally).",
         ),
         (
             "Why poses would invert: the JLD mapping alone",
