@@ -355,7 +355,7 @@ def test_warm_start_turns_the_correction_with_its_segment(hand, poser):
     deep = {"wrist": 60.0, "index_mcp": 85.0, "index_pip": 95.0, "middle_mcp": 85.0}
     cold = poser.pose(deep)
     near = dict(deep, index_pip=80.0, wrist=55.0)
-    tf = hand.skeleton.forward_kinematics(poser.pose(near, check=False).angles)
+    tf = hand.skeleton.forward_kinematics(hand.skeleton.check_angles(near))
     carried = poser._carried(cold, tf)
     c = cold.correction
     np.testing.assert_allclose(np.linalg.norm(carried, axis=1), np.linalg.norm(c, axis=1))
