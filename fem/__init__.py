@@ -8,6 +8,7 @@ reactions, free bodies, stresses, generators, meshing and IO.
 from __future__ import annotations
 
 from .assembly import assemble_stiffness, element_dofs, element_stiffness
+from .eigen3 import eigh3, rotation_svd3
 from .elements import ELEMENTS, HEX8, TET4, WEDGE6, ReferenceElement
 from .errors import (
     FemError,
@@ -73,6 +74,7 @@ __all__ = [
     "check_balance",
     "check_surface",
     "dense_threads",
+    "eigh3",
     "elasticity_matrix",
     "element_dofs",
     "element_stiffness",
@@ -93,6 +95,7 @@ __all__ = [
     "read_mesh",
     "read_mesh_data",
     "rigid_body_modes",
+    "rotation_svd3",
     "shell_mesh",
     "sparse_threads",
     "sphere_surface",

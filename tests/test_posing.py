@@ -15,14 +15,13 @@ from contact.errors import PoseError, RigError
 from contact.hand import load_hand
 from contact.keyframes import Keyframes
 from contact.posing import (
-    _HDET,
     RELAX_UNTANGLE,
     FleshRelaxer,
     HandPoser,
     Pose,
     _block_pattern,
     _cofactor,
-    _project_isotropic,
+    _isotropic_eigen,
     pose_hand,
     tet_quality,
     tet_volumes,
@@ -225,8 +224,15 @@ def test_sequence_to_png_frames_and_gif(hand, poser, tmp_path):
     assert gif.n_frames == 2
 
 
-def test_isotropic_projection_is_the_eigen_projection():
-    """The SVD eigenvectors project an isotropic Hessian as a 9 x 9 eigensolver does."""
+#: Levi-Civita symbol; ``d^2 det F / dF_ij dF_kl = sum_mn _HDET[ij, kl, mn] F_mn``.
+_LEVI = np.zeros((3, 3, 3))
+_LEVI[0, 1, 2] = _LEVI[1, 2, 0] = _LEVI[2, 0, 1] = 1.0
+_LEVI[0, 2, 1] = _LEVI[2, 1, 0] = _LEVI[1, 0, 2] = -1.0
+_HDET = np.einsum("ikm,jln->ijklmn", _LEVI, _LEVI).reshape(81, 9)
+
+
+def test_isotropic_eigensystem_projects_as_a_9x9_eigensolver():
+    """The analytic eigensystem is the 9 x 9 Hessian's, and projects it as eigh does."""
     rng = np.random.default_rng(0)
     f = rng.normal(size=(400, 3, 3))
     f[:5] = np.eye(3)  # repeated singular values
@@ -244,8 +250,15 @@ def test_isotropic_projection_is_the_eigen_projection():
     w, v = np.linalg.eigh(hf)
     assert (w < 0.0).any(axis=1).sum() > 100  # most need projecting
     expect = (v * np.maximum(w, 1e-8 * a[:, None])[:, None, :]) @ v.transpose(0, 2, 1)
-    got = _project_isotropic(hf, f, 1e-8 * a)
-    np.testing.assert_allclose(got, expect, rtol=0.0, atol=1e-11 * np.abs(expect).max())
+    q, wq = _isotropic_eigen(f, a, cb, cj, c)
+    scale = np.abs(hf).max()
+    np.testing.assert_allclose(
+        q.transpose(0, 2, 1) @ q, np.broadcast_to(np.eye(9), q.shape), atol=1e-12
+    )
+    np.testing.assert_allclose(hf @ q, q * wq[:, None, :], rtol=0.0, atol=1e-11 * scale)
+    np.testing.assert_allclose(np.sort(wq, axis=1), w, rtol=0.0, atol=1e-11 * scale)
+    got = (q * np.maximum(wq, 1e-8 * a[:, None])[:, None, :]) @ q.transpose(0, 2, 1)
+    np.testing.assert_allclose(got, expect, rtol=0.0, atol=1e-11 * scale)
 
 
 def test_block_pattern_is_the_pattern_of_the_assembled_matrix():
