@@ -58,8 +58,21 @@ def render_hand(
     -------
     ndarray of uint8, shape (height, width, 3)
         The image.
+
+    Raises
+    ------
+    ContactError
+        No off-screen rendering here (:func:`contact.output.rendering_available` says
+        why), rather than a VTK failure that can abort the process.
     """
     import pyvista as pv
+
+    from .errors import ContactError
+    from .output import rendering_available
+
+    ok, reason = rendering_available()
+    if not ok:
+        raise ContactError(f"cannot render {os.fspath(path)}: {reason}")
 
     plotter = pv.Plotter(off_screen=True, window_size=list(window_size))
     plotter.set_background("white")

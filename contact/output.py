@@ -190,16 +190,15 @@ assert img.shape[:2] == (48, 64) and np.ptp(img) > 0, "blank image"
 """
 
 
-@functools.cache
-def rendering_available() -> tuple[bool, str]:
-    """Can pyvista render off-screen here? Checked once per process, in a child process.
+#: The environment variable by which VTK (9.4 on) is told which OpenGL window to make.
+_WINDOW_VARIABLE = "VTK_DEFAULT_OPENGL_WINDOW"
+#: Asked for first on Linux without a display: left to choose, VTK tries X first, logs
+#: "bad X server connection" on every run, and only then falls back to EGL.
+_HEADLESS_WINDOW = "vtkEGLRenderWindow"
 
-    Returns
-    -------
-    ok : bool
-    reason : str
-        ``"ok"``, or why not (the child's last error line).
-    """
+
+def _probe(env: Mapping[str, str]) -> tuple[bool, str]:
+    """Render a small picture in a child process with ``env`` added to the environment."""
     try:
         proc = subprocess.run(
             [sys.executable, "-c", _PROBE],
@@ -207,6 +206,7 @@ def rendering_available() -> tuple[bool, str]:
             text=True,
             timeout=120,
             check=False,
+            env={**os.environ, **env},
         )
     except (OSError, subprocess.SubprocessError) as exc:
         return False, f"off-screen rendering check failed: {exc}"
@@ -215,6 +215,30 @@ def rendering_available() -> tuple[bool, str]:
     lines = [ln.strip() for ln in proc.stderr.splitlines() if ln.strip()]
     last = lines[-1] if lines else f"exit status {proc.returncode}"
     return False, f"off-screen rendering unavailable: {last[:300]}"
+
+
+@functools.cache
+def rendering_available() -> tuple[bool, str]:
+    """Can pyvista render off-screen here? Checked once per process, in a child process.
+
+    On Linux without a display (``DISPLAY`` and ``WAYLAND_DISPLAY`` unset), and unless the
+    user chose a window (``VTK_DEFAULT_OPENGL_WINDOW``), EGL is tried first; where it
+    renders, this process asks VTK for it too, so that VTK does not try X and log a
+    warning on every run. Otherwise VTK chooses, as it would.
+
+    Returns
+    -------
+    ok : bool
+    reason : str
+        ``"ok"``, or why not (the child's last error line).
+    """
+    headless = not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+    if sys.platform.startswith("linux") and headless and _WINDOW_VARIABLE not in os.environ:
+        ok, _ = _probe({_WINDOW_VARIABLE: _HEADLESS_WINDOW})
+        if ok:
+            os.environ[_WINDOW_VARIABLE] = _HEADLESS_WINDOW
+            return True, "ok"
+    return _probe({})
 
 
 def _jsonable(value: Any) -> Any:

@@ -426,3 +426,44 @@ def test_real_frames_with_pictures_gif_and_convergence(tmp_path):
     assert (out / "convergence.png").stat().st_size > 1000
     _, pdata, _ = fem.read_mesh_data(out / "ball_0001.vtu")
     np.testing.assert_array_equal(pdata["displacement"], res.displacement["ball"])
+
+
+@pytest.mark.parametrize("egl", [True, False])
+def test_headless_linux_asks_vtk_for_egl_where_it_renders(monkeypatch, egl):
+    """No display: EGL is probed first and chosen where it renders, else VTK chooses."""
+    import contact.output as out
+
+    calls = []
+
+    def probe(env):
+        calls.append(dict(env))
+        return (egl, "ok" if egl else "no EGL") if env else (True, "ok")
+
+    monkeypatch.setattr(out, "_probe", probe)
+    monkeypatch.setattr(out.sys, "platform", "linux")
+    for var in ("DISPLAY", "WAYLAND_DISPLAY", "VTK_DEFAULT_OPENGL_WINDOW"):
+        monkeypatch.setenv(var, "")  # recorded, so that what the call sets is undone
+        monkeypatch.delenv(var)
+    assert out.rendering_available.__wrapped__() == (True, "ok")
+    assert calls[0] == {"VTK_DEFAULT_OPENGL_WINDOW": "vtkEGLRenderWindow"}
+    if egl:
+        assert len(calls) == 1
+        assert out.os.environ["VTK_DEFAULT_OPENGL_WINDOW"] == "vtkEGLRenderWindow"
+    else:
+        assert calls[1:] == [{}]
+        assert "VTK_DEFAULT_OPENGL_WINDOW" not in out.os.environ
+    # a display, or the user's own choice: VTK chooses, one probe
+    calls.clear()
+    monkeypatch.setenv("DISPLAY", ":0")
+    out.rendering_available.__wrapped__()
+    assert calls == [{}]
+
+
+def test_hand_picture_without_rendering_is_a_clear_error(monkeypatch, tmp_path):
+    import contact.output
+    from contact.handplot import render_hand
+
+    monkeypatch.setattr(contact.output, "rendering_available", lambda: (False, "no OpenGL"))
+    with pytest.raises(ContactError, match=r"cannot render .*hand\.png: no OpenGL"):
+        render_hand(tmp_path / "hand.png", {})
+    assert not (tmp_path / "hand.png").exists()
