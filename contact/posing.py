@@ -208,8 +208,10 @@ def _isotropic_eigen(
     the scalings ``U e_p e_p^T V^T``, where ``F`` is ``s``, ``g`` is ``s_q s_k`` and
     ``d^2 J`` is ``s_k`` off the diagonal. One SVD and one 3 x 3 eigenproblem a
     tetrahedron, nothing of 9 x 9 built: the columns are the scalings, then a twist and a
-    flip a pair. Both decompositions in closed form (:mod:`fem.eigen3`): on 2,600
-    tetrahedra 3.3 against 11 ms with LAPACK's ``svd`` and ``eigh``.
+    flip a pair. Both decompositions in closed form (:mod:`fem.eigen3`). On 2,600
+    tetrahedra 8.4 ms, against 21.6 ms to build the 9 x 9 Hessians and project them on
+    LAPACK's SVD and 3 x 3 eigenproblems; a third of it is the outer products
+    ``U e_a (V e_b)^T`` themselves.
     """
     m = len(f)
     u, s, vt = rotation_svd3(f)
