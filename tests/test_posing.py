@@ -21,6 +21,8 @@ from contact.posing import (
     Pose,
     _block_pattern,
     _cofactor,
+    _eigen_gradients,
+    _eigenvectors,
     _isotropic_eigen,
     pose_hand,
     tet_quality,
@@ -232,7 +234,10 @@ _HDET = np.einsum("ikm,jln->ijklmn", _LEVI, _LEVI).reshape(81, 9)
 
 
 def test_isotropic_eigensystem_projects_as_a_9x9_eigensolver():
-    """The analytic eigensystem is the 9 x 9 Hessian's, and projects it as eigh does."""
+    """The analytic eigensystem is the 9 x 9 Hessian's, and projects it as eigh does.
+
+    Its vectors' gradients in a tetrahedron's nodes are ``B^T q`` (``vec F = B vec x``).
+    """
     rng = np.random.default_rng(0)
     f = rng.normal(size=(400, 3, 3))
     f[:5] = np.eye(3)  # repeated singular values
@@ -250,7 +255,8 @@ def test_isotropic_eigensystem_projects_as_a_9x9_eigensolver():
     w, v = np.linalg.eigh(hf)
     assert (w < 0.0).any(axis=1).sum() > 100  # most need projecting
     expect = (v * np.maximum(w, 1e-8 * a[:, None])[:, None, :]) @ v.transpose(0, 2, 1)
-    q, wq = _isotropic_eigen(f, a, cb, cj, c)
+    u, vt, ev, wq = _isotropic_eigen(f, a, cb, cj, c)
+    q = _eigenvectors(u, vt, ev)
     scale = np.abs(hf).max()
     np.testing.assert_allclose(
         q.transpose(0, 2, 1) @ q, np.broadcast_to(np.eye(9), q.shape), atol=1e-12
@@ -259,6 +265,13 @@ def test_isotropic_eigensystem_projects_as_a_9x9_eigensolver():
     np.testing.assert_allclose(np.sort(wq, axis=1), w, rtol=0.0, atol=1e-11 * scale)
     got = (q * np.maximum(wq, 1e-8 * a[:, None])[:, None, :]) @ q.transpose(0, 2, 1)
     np.testing.assert_allclose(got, expect, rtol=0.0, atol=1e-11 * scale)
+    # F = X^T D: B[3 i + j, 3 n + i] = D[n, j]
+    dmat = rng.normal(size=(400, 4, 3))
+    b = np.zeros((400, 3, 3, 4, 3))
+    for i in range(3):
+        b[:, i, :, :, i] = dmat.transpose(0, 2, 1)
+    expect_g = b.reshape(400, 9, 12).transpose(0, 2, 1) @ q
+    np.testing.assert_allclose(_eigen_gradients(u, vt, ev, dmat), expect_g, atol=1e-13)
 
 
 def test_block_pattern_is_the_pattern_of_the_assembled_matrix():
