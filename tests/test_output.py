@@ -452,8 +452,14 @@ def test_headless_linux_asks_vtk_for_egl_where_it_renders(monkeypatch, egl):
     else:
         assert calls[1:] == [{}]
         assert "VTK_DEFAULT_OPENGL_WINDOW" not in out.os.environ
-    # a display, or the user's own choice: VTK chooses, one probe
+    # the user's own choice, or a display: VTK chooses, one probe
     calls.clear()
+    monkeypatch.setenv("VTK_DEFAULT_OPENGL_WINDOW", "vtkOSOpenGLRenderWindow")
+    out.rendering_available.__wrapped__()
+    assert calls == [{}]
+    assert out.os.environ["VTK_DEFAULT_OPENGL_WINDOW"] == "vtkOSOpenGLRenderWindow"
+    calls.clear()
+    monkeypatch.delenv("VTK_DEFAULT_OPENGL_WINDOW")
     monkeypatch.setenv("DISPLAY", ":0")
     out.rendering_available.__wrapped__()
     assert calls == [{}]
