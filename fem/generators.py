@@ -268,7 +268,11 @@ def ball_mesh(
     size : float, optional
         Target edge length (m); sets ``divisions`` and ``layers`` when omitted.
     divisions : int, optional
-        Cells along each edge of the core cube (and of each outer block's faces).
+        Cells along each edge of the core cube (and of each outer block's faces). An
+        even number puts a node at each of the six poles; with an odd one the facets
+        there sit inside the sphere (``radius`` 0.02 m, ``size`` 0.003 m: its lowest
+        nodes 0.25 mm above the sphere's bottom), so that a plane touching the sphere
+        touches no node until it has moved that far.
     layers : int, optional
         Cells from the core to the sphere.
     center : array_like, shape (3,)
