@@ -36,6 +36,7 @@ import numpy as np
 from contact.hand import load_hand
 from contact.keyframes import Keyframes
 from contact.posing import HandPoser, tet_quality, tet_volumes
+from contact.skeleton import Skeleton
 
 from ._common import (
     Column,
@@ -56,6 +57,7 @@ __all__ = [
     "sample_range",
     "sample_sequences",
     "sequence_keys",
+    "sequence_poses",
 ]
 
 #: Goal: seconds to pose one frame of the fine hand.
@@ -265,6 +267,21 @@ def sequence_keys(
     return keys
 
 
+def sequence_poses(
+    skeleton: Skeleton, fraction: float, rng: np.random.Generator
+) -> list[dict[str, float]]:
+    """One sequence's joint angles, frame by frame.
+
+    :func:`sequence_keys` sampled at :data:`SEQ_FPS` frames a second, the spline's
+    overshoots clamped silently. The sequences of :func:`sample_sequences` and of
+    :mod:`benchmarks.posing_replay`.
+    """
+    frames = Keyframes(skeleton, sequence_keys(skeleton.limits, fraction, rng))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return [frames.pose(t) for t in np.arange(SEQ_KEYS * SEQ_FPS + 1) / SEQ_FPS]
+
+
 def sample_sequences(poser: HandPoser, fraction: float, n_sequences: int, seed: int = 0) -> dict:
     """Pose keyframed sequences frame by frame, cold and warm-started.
 
@@ -281,17 +298,13 @@ def sample_sequences(poser: HandPoser, fraction: float, n_sequences: int, seed: 
         left with an inverted tetrahedron).
     """
     hand = poser.hand
-    limits = hand.skeleton.limits
     rng = np.random.default_rng(seed)
     out: dict = {"sequences": n_sequences, "frames": 0}
     stats = {
         m: {"times": [], "steps": 0, "quality": np.inf, "inverted": 0} for m in ("cold", "warm")
     }
     for _ in range(n_sequences):
-        frames = Keyframes(hand.skeleton, sequence_keys(limits, fraction, rng))
-        with warnings.catch_warnings():  # the spline's overshoots, clamped
-            warnings.simplefilter("ignore", RuntimeWarning)
-            poses = [frames.pose(t) for t in np.arange(SEQ_KEYS * SEQ_FPS + 1) / SEQ_FPS]
+        poses = sequence_poses(hand.skeleton, fraction, rng)
         out["frames"] += len(poses)
         previous = None
         for angles in poses:  # cold and warm frame by frame: the same machine state

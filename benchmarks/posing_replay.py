@@ -32,30 +32,20 @@ import argparse
 import csv
 import time
 import types
-import warnings
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 import numpy as np
 
 from contact.hand import load_hand
-from contact.keyframes import Keyframes
 from contact.posing import HandPoser
 
-from .posing import SEQ_FPS, SEQ_KEYS, sequence_keys
+from .posing import sequence_poses
 
 __all__ = ["KEYS", "compare", "main", "record", "replay", "summary"]
 
 #: The columns of a replay's CSV.
 KEYS = ["seed", "sequence", "frame", "seconds", "newton_steps", "min_quality", "inverted"]
-
-
-def _poses(hand, fraction: float, rng: np.random.Generator) -> list[dict[str, float]]:
-    """One sequence's joint angles, frame by frame (the posing study's sequences)."""
-    frames = Keyframes(hand.skeleton, sequence_keys(hand.skeleton.limits, fraction, rng))
-    with warnings.catch_warnings():  # the spline's overshoots, clamped
-        warnings.simplefilter("ignore", RuntimeWarning)
-        return [frames.pose(t) for t in np.arange(SEQ_KEYS * SEQ_FPS + 1) / SEQ_FPS]
 
 
 def record(
@@ -103,7 +93,7 @@ def record(
         val: list[np.ndarray] = []
         for s in range(sequences):
             previous = None
-            for i, angles in enumerate(_poses(hand, fraction, rng)):
+            for i, angles in enumerate(sequence_poses(hand.skeleton, fraction, rng)):
                 rows["ids"].append((seed, s, i))
                 rows["angles"].append([angles.get(n, 0.0) for n in names])
                 has = previous is not None and previous.correction is not None
