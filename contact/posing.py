@@ -130,6 +130,11 @@ def tet_quality(points: ArrayLike, tets: ArrayLike) -> NDArray[np.float64]:
     1 for the regular tetrahedron, 0 for a flat one, negative for an inverted one
     (``l_rms`` is the root mean square of the six edge lengths).
     """
+    return _volumes_quality(points, tets)[1]
+
+
+def _volumes_quality(points: ArrayLike, tets: ArrayLike) -> tuple[NDArray, NDArray]:
+    """:func:`tet_volumes` and :func:`tet_quality` from one pass over the edges."""
     a, b, c = _edges(points, tets)
     sq = a[0] * a[0]
     for u in (a[1], a[2], *b, *c):
@@ -140,11 +145,12 @@ def tet_quality(points: ArrayLike, tets: ArrayLike) -> NDArray[np.float64]:
             d *= d
             sq += d
     v = _triple(a, b, c)  # 6 V
+    volumes = v / 6.0
     sq /= 6.0  # l_rms^2
     sq *= np.sqrt(sq)
     v *= np.sqrt(2.0)
     v /= sq
-    return v
+    return volumes, v
 
 
 #: A warm start (:meth:`FleshRelaxer.relax_quality`) whose Newton run leaves a tetrahedron
@@ -391,10 +397,9 @@ def _solve(
     """
     n = len(b)
     pre.data = np.linalg.inv(blocks).ravel()
-    m = pre
     x = np.zeros(n)
     r = b.copy()
-    z = m @ r
+    z = pre @ r
     p = z.copy()
     rz = float(r @ z)
     stop = _CG_RTOL * float(np.linalg.norm(b))
@@ -405,7 +410,7 @@ def _solve(
         alpha = rz / float(p @ q)
         x += alpha * p
         r -= alpha * q
-        z = m @ r
+        z = pre @ r
         rz, rz_old = float(r @ z), rz
         p *= rz / rz_old
         p += z
@@ -1264,10 +1269,11 @@ class FleshRelaxer:
         e_prev, n_prev = np.inf, len(cells)
         stalled = 0
         best, x_best = (int((q <= 0.0).sum()), -q.min()), x[free].copy()
+        vols = tet_volumes(x[own], tl)  # then from each step's qualities
         for _ in range(self.maxiter):
             # Escobar's regularisation follows the most inverted tetrahedron: a gentle
             # barrier on a tangled patch, a steep one (delta -> 0) once it is untangled
-            jmin = float(np.min(tet_volumes(x[own], tl) / patch["vol"]))
+            jmin = float(np.min(vols / patch["vol"]))
             delta = np.sqrt(eps * (eps - jmin)) if jmin < eps else eps * 0.1
             e, g, hk, lap = self._terms(x, patch, delta)
             grad = np.bincount(gslot[gkeep], g.reshape(-1)[gkeep], minlength=n)
@@ -1286,7 +1292,7 @@ class FleshRelaxer:
                 if e1 <= e0 + 1e-4 * t * decrease or t < 1e-6:
                     break
                 t *= 0.5
-            q = tet_quality(x[own], tl)
+            vols, q = _volumes_quality(x[own], tl)
             n_inv = int((q <= 0.0).sum())
             if (n_inv, -q.min()) < best:
                 best, x_best = (n_inv, -q.min()), x[free].copy()
