@@ -39,6 +39,7 @@ from scipy.sparse import csr_matrix
 import fem
 from fem.eigen3 import eigh3, rotation_svd3
 
+from . import relaxkernels
 from .errors import PoseError
 from .hand import Hand
 from .jld import JLDMap
@@ -77,51 +78,23 @@ RELAX_RESTARTS = 3
 RELAX_UNTANGLE = 0.05
 
 
-def _edges(points: ArrayLike, tets: ArrayLike) -> tuple[list[NDArray], ...]:
-    """The edges from the first node of every tetrahedron to the other three.
-
-    Three lists ``a, b, c`` of the edges' three components, shape (M,) each. Gathered
-    component by component from contiguous copies (``take``): on the fine hand's 90,000
-    tetrahedra its quality takes 9 ms, against 20 ms from (M, 3) rows gathered by fancy
-    indexing (numpy's row gathers and its reductions along the short axis are slow).
-    Below :data:`_ROW_GATHER` tetrahedra the rows are gathered instead: the contiguous
-    copy of every point's components costs more than that (21,000 points: 37 against
-    12 us for 100 tetrahedra, 42 against 18 for 400; even at 6,000). The same values.
-    """
+def _points_tets(points: ArrayLike, tets: ArrayLike) -> tuple[NDArray, NDArray]:
     pts = np.asarray(points, dtype=np.float64)
-    tets = np.asarray(tets)
-    if len(tets) < _ROW_GATHER:
-        c = np.ascontiguousarray(np.take(pts, tets.T.ravel(), axis=0).T).reshape(3, 4, -1)
-        return tuple([c[i, k] - c[i, 0] for i in range(3)] for k in (1, 2, 3))
-    xc = np.ascontiguousarray(pts.T)
-    tt = np.ascontiguousarray(tets.T)
-    p0 = [xc[i].take(tt[0]) for i in range(3)]
-    a, b, c = ([xc[i].take(tt[k]) - p0[i] for i in range(3)] for k in (1, 2, 3))
-    return a, b, c
-
-
-#: Fewer tetrahedra than this: :func:`_edges` gathers their nodes' rows.
-_ROW_GATHER = 4000
-
-
-def _triple(a: NDArray, b: NDArray, c: NDArray) -> NDArray[np.float64]:
-    """``a . (b x c)`` row by row, written out (a third of ``np.cross``'s time).
-
-    Rows of (M, 3) arrays, or lists of three components (:func:`_edges`).
-    """
-    if isinstance(a, np.ndarray):
-        a, b, c = a.T, b.T, c.T
-    v = a[0] * (b[1] * c[2] - b[2] * c[1])
-    v += a[1] * (b[2] * c[0] - b[0] * c[2])
-    v += a[2] * (b[0] * c[1] - b[1] * c[0])
-    return v
+    t = np.asarray(tets)
+    if pts.ndim != 2 or pts.shape[1] != 3 or t.ndim != 2 or t.shape[1] != 4:
+        raise ValueError(
+            f"expected points of shape (N, 3) and tetrahedra of shape (M, 4), got "
+            f"{pts.shape} and {t.shape}"
+        )
+    t = np.ascontiguousarray(t, dtype=np.int64)
+    if t.size and (t.min() < 0 or t.max() >= len(pts)):
+        raise ValueError(f"tetrahedra refer to nodes outside 0..{len(pts) - 1}")
+    return np.ascontiguousarray(pts), t
 
 
 def tet_volumes(points: ArrayLike, tets: ArrayLike) -> NDArray[np.float64]:
     """Signed volumes of tetrahedra (positive for VTK's orientation), shape (M,)."""
-    v = _triple(*_edges(points, tets))
-    v /= 6.0
-    return v
+    return relaxkernels.volumes_quality(*_points_tets(points, tets))[0]
 
 
 def tet_quality(points: ArrayLike, tets: ArrayLike) -> NDArray[np.float64]:
@@ -130,27 +103,7 @@ def tet_quality(points: ArrayLike, tets: ArrayLike) -> NDArray[np.float64]:
     1 for the regular tetrahedron, 0 for a flat one, negative for an inverted one
     (``l_rms`` is the root mean square of the six edge lengths).
     """
-    return _volumes_quality(points, tets)[1]
-
-
-def _volumes_quality(points: ArrayLike, tets: ArrayLike) -> tuple[NDArray, NDArray]:
-    """:func:`tet_volumes` and :func:`tet_quality` from one pass over the edges."""
-    a, b, c = _edges(points, tets)
-    sq = a[0] * a[0]
-    for u in (a[1], a[2], *b, *c):
-        sq += u * u
-    for u, w in ((b, a), (c, a), (c, b)):
-        for i in range(3):
-            d = u[i] - w[i]
-            d *= d
-            sq += d
-    v = _triple(a, b, c)  # 6 V
-    volumes = v / 6.0
-    sq /= 6.0  # l_rms^2
-    sq *= np.sqrt(sq)
-    v *= np.sqrt(2.0)
-    v /= sq
-    return volumes, v
+    return relaxkernels.volumes_quality(*_points_tets(points, tets))[1]
 
 
 #: A warm start (:meth:`FleshRelaxer.relax_quality`) whose Newton run leaves a tetrahedron
@@ -170,11 +123,14 @@ _EXACT_J = 0.25
 #: subproblems are dense, their cost grows as the cube (measured: 136 unknowns and 464
 #: tetrahedra, 0.1 to 2 s; a wider tangle, such as the wrist's, is left to the passes).
 _MAXMIN_VARIABLES = 600
-#: Relative residual of the conjugate gradients of a Newton step (:func:`_solve`).
+#: Relative residual of the conjugate gradients of a Newton step
+#: (:func:`contact.relaxkernels.block_cg`: an inexact Newton step).
 #: Measured on the fine hand's random poses at half and three quarters of the limits
 #: (80 each): as many Newton steps as at 1e-3 (334 and 1143 against 327 and 1165), a
 #: fifth less time, the same worst qualities; at 1e-1 more steps at three quarters.
 _CG_RTOL = 1e-2
+#: ... or at most this many iterations (a Newton step of the fine hand's wrist takes 20-30).
+_CG_MAXITER = 1000
 #: For the 3 x 3 scaling block of :func:`_isotropic_eigen`: the index ``k`` third to
 #: ``(p, q)`` and the off-diagonal mask (``d^2 det S / ds_p ds_q = s_k``).
 _THIRD = np.array([[0, 2, 1], [2, 1, 0], [1, 0, 2]])
@@ -381,49 +337,6 @@ def _unique_pairs(key: NDArray[np.int64], nodes: int) -> tuple[NDArray[np.int64]
     return at - 1, table[k].astype(np.int64)
 
 
-def _solve(
-    a: csr_matrix, b: NDArray[np.float64], blocks: NDArray[np.float64], pre: csr_matrix
-) -> NDArray[np.float64]:
-    """The Newton step: ``a x = b`` to a relative residual :data:`_CG_RTOL` (inexact Newton).
-
-    Conjugate gradients preconditioned with the inverses of ``a``'s 3 x 3 diagonal blocks
-    ``blocks`` (one a node; ``a`` is positive definite). Against the plain diagonal: a
-    tenth fewer Newton steps on the fine hand's deep poses (its exact solve by PARDISO
-    takes fewer steps still but more time: each factorisation costs about two of these).
-    The iteration is scipy's ``cg`` written out, the preconditioner a sparse matrix:
-    the same iterates in about 60 % of the time (its operator wrappers cost as much as
-    the products on a patch of a few thousand unknowns). ``pre``: the block-diagonal
-    pattern (:func:`_block_diagonal`), its values overwritten with the inverses.
-    """
-    n = len(b)
-    pre.data = np.linalg.inv(blocks).ravel()
-    x = np.zeros(n)
-    r = b.copy()
-    z = pre @ r
-    p = z.copy()
-    rz = float(r @ z)
-    stop = _CG_RTOL * float(np.linalg.norm(b))
-    for _ in range(1000):
-        if np.linalg.norm(r) <= stop:
-            break
-        q = a @ p
-        alpha = rz / float(p @ q)
-        x += alpha * p
-        r -= alpha * q
-        z = pre @ r
-        rz, rz_old = float(r @ z), rz
-        p *= rz / rz_old
-        p += z
-    return x
-
-
-def _block_diagonal(n: int) -> csr_matrix:
-    """The pattern of an (``n``, ``n``) matrix of 3 x 3 diagonal blocks (values zero)."""
-    indptr = np.arange(0, 3 * n + 1, 3)
-    indices = (3 * (np.arange(n) // 3)[:, None] + np.arange(3)).ravel()
-    return csr_matrix((np.zeros(3 * n), indices, indptr), shape=(n, n))
-
-
 class FleshRelaxer:
     """Untangles and relaxes the free nodes around degraded tetrahedra of a posed mesh.
 
@@ -605,15 +518,16 @@ class FleshRelaxer:
 
     def _energy(self, x: NDArray[np.float64], patch: dict[str, NDArray], delta: float) -> float:
         """The energy of a patch's tetrahedra alone (the line search's); see :meth:`_gather`."""
-        f = np.transpose(np.take(x, patch["tets"], axis=0), (0, 2, 1)) @ patch["dmat"]
-        j = _triple(f[:, :, 0], f[:, :, 1], f[:, :, 2])
-        _, h = _regularised(j, delta * delta)
-        nf = np.einsum("mij,mij->m", f, f)
-        return float(patch["vol"] @ _density(nf, h ** (-2.0 / 3.0), h, self.kappa))
+        return relaxkernels.patch_energy(
+            x, patch["tets"], patch["dmat"], patch["vol"], delta * delta, self.kappa
+        )
 
     def _terms(self, x, patch, delta, hessian=True):
-        """Energy per tetrahedron, gradient per node (m, 4, 3) and Hessian.
+        """Energy per tetrahedron, gradient per node (m, 4, 3) and Hessian, in numpy.
 
+        The reference of the Newton step's compiled kernel
+        (:func:`contact.relaxkernels.step_terms`, tested equal to round-off), and the
+        terms of :meth:`energy`.
         The Hessian in two parts, their sum: ``hk`` (m, 12, 12) and ``lap`` (m, 4, 4),
         whose ``lap x I3`` (the distortion's ``a |dF|^2`` on a fair tetrahedron, the same
         for the three components) is assembled on node pairs (:func:`_block_pattern`),
@@ -1246,10 +1160,7 @@ class FleshRelaxer:
         if (q > floor).all():
             return
         patch = self._gather(cells)
-        # the patch's own nodes: its volumes and qualities taken on them, not on a copy
-        # of the whole mesh's coordinates (most of their cost on a small patch)
-        own, tl = np.unique(tets, return_inverse=True)
-        tl = tl.reshape(tets.shape)
+        vol, dmat, ddt = patch["vol"], patch["dmat"], patch["ddt"]
         local = np.full(len(x), -1, dtype=np.int64)
         local[free] = np.arange(len(free))
         dof = (3 * local[tets][:, :, None] + np.arange(3)).reshape(-1, 12)
@@ -1257,42 +1168,36 @@ class FleshRelaxer:
         n = 3 * len(free)
         # the sparsity pattern once: entry k of the element matrices adds to slot[k]
         # (the entries on a held node go to a slot past the end, dropped)
-        slot_all, indptr, indices, diag, pair_slot, pair_diag = _block_pattern(
-            local[tets], len(free)
-        )
-        npairs = len(pair_diag)
-        a = csr_matrix((np.zeros(len(indices)), indices, indptr), shape=(n, n))
-        pre = _block_diagonal(n)
+        slot, indptr, indices, diag, pair_slot, pair_diag = _block_pattern(local[tets], len(free))
         gslot = dof.ravel()
-        gkeep = gslot >= 0
+        pair_diag = np.ascontiguousarray(pair_diag)
         eps = self.delta
         e_prev, n_prev = np.inf, len(cells)
         stalled = 0
         best, x_best = (int((q <= 0.0).sum()), -q.min()), x[free].copy()
-        vols = tet_volumes(x[own], tl)  # then from each step's qualities
+        vols = tet_volumes(x, tets)  # then from each step's qualities
         for _ in range(self.maxiter):
             # Escobar's regularisation follows the most inverted tetrahedron: a gentle
             # barrier on a tangled patch, a steep one (delta -> 0) once it is untangled
-            jmin = float(np.min(vols / patch["vol"]))
+            jmin = float(np.min(vols / vol))
             delta = np.sqrt(eps * (eps - jmin)) if jmin < eps else eps * 0.1
-            e, g, hk, lap = self._terms(x, patch, delta)
-            grad = np.bincount(gslot[gkeep], g.reshape(-1)[gkeep], minlength=n)
-            data = np.bincount(slot_all, hk.ravel(), minlength=len(indices) + 1)[:-1]
-            data[pair_diag] += np.bincount(pair_slot, lap.ravel(), minlength=npairs + 1)[:-1, None]
-            a.data = data
-            step = -_solve(a, grad, data[diag].reshape(-1, 3, 3), pre)
+            d2 = delta * delta
+            e0, grad, data = relaxkernels.step_terms(
+                x, tets, dmat, ddt, vol, d2, self.kappa, _EXACT_J,
+                gslot, slot, pair_slot, pair_diag, n, len(indices),
+            )  # fmt: skip
+            step = -relaxkernels.block_cg(indptr, indices, data, diag, grad, _CG_RTOL, _CG_MAXITER)
             decrease = float(grad @ step)
             self.stats["iterations"] += 1
-            e0 = float(e.sum())
             x0 = x[free].copy()
             t = 1.0
             while True:
                 x[free] = x0 + t * step.reshape(-1, 3)
-                e1 = self._energy(x, patch, delta)
+                e1 = relaxkernels.patch_energy(x, tets, dmat, vol, d2, self.kappa)
                 if e1 <= e0 + 1e-4 * t * decrease or t < 1e-6:
                     break
                 t *= 0.5
-            vols, q = _volumes_quality(x[own], tl)
+            vols, q = relaxkernels.volumes_quality(x, tets)
             n_inv = int((q <= 0.0).sum())
             if (n_inv, -q.min()) < best:
                 best, x_best = (n_inv, -q.min()), x[free].copy()

@@ -499,20 +499,3 @@ def test_warm_frames_keep_the_cold_frames_quality_at_a_quarter_of_the_limits():
         previous = fine.pose(a, check=False, start=previous)
         warm = min(warm, previous.min_quality)
     assert warm >= 0.95 * cold > 0.02
-
-
-def test_edges_gathered_by_rows_equal_the_component_gather(monkeypatch):
-    """Small and large tetrahedron sets: the same volumes and qualities, bit for bit."""
-    from contact import posing
-
-    rng = np.random.default_rng(4)
-    points = rng.normal(size=(500, 3))
-    tets = rng.integers(0, 500, size=(300, 4))
-    got = {}
-    for gather in (10**9, 0):  # rows, then components
-        monkeypatch.setattr(posing, "_ROW_GATHER", gather)
-        got[gather] = (tet_volumes(points, tets), tet_quality(points, tets))
-    for a, b in zip(got[10**9], got[0], strict=True):
-        np.testing.assert_array_equal(a, b)
-    a, b, c = (points[tets[:, k]] - points[tets[:, 0]] for k in (1, 2, 3))
-    np.testing.assert_allclose(got[0][0], np.einsum("ij,ij->i", a, np.cross(b, c)) / 6.0)
