@@ -79,6 +79,7 @@ RELAX_UNTANGLE = 0.05
 
 
 def _points_tets(points: ArrayLike, tets: ArrayLike) -> tuple[NDArray, NDArray]:
+    """Points (N, 3) float and tetrahedra (M, 4) int64, contiguous, checked for the kernels."""
     pts = np.asarray(points, dtype=np.float64)
     t = np.asarray(tets)
     if pts.ndim != 2 or pts.shape[1] != 3 or t.ndim != 2 or t.shape[1] != 4:
