@@ -372,8 +372,9 @@ class FleshRelaxer:
     neighbourhood from a nearby bone's rigid motion,
     untangled by a penalty on the volumes or, failing that, by maximising the least
     volume (:meth:`relax_quality`); last, the positive tetrahedra left below the stop floor are
-    relaxed once more on their own. All of it is vectorised over tetrahedra: a deep
-    pose of the coarse hand takes a few Newton steps.
+    relaxed once more on their own. A Newton step's element terms, assembly, line
+    search and conjugate gradients are compiled loops over the tetrahedra
+    (:mod:`contact.relaxkernels`); the rest is vectorised over them.
 
     Parameters
     ----------
