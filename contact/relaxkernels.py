@@ -14,7 +14,7 @@ eigensystem is computed per tetrahedron: the signed SVD of ``F`` from the eigenv
 of ``F^T F`` and Gram-Schmidt (as :func:`fem.rotation_svd3`), its 3 x 3 symmetric
 eigenproblems by cyclic Jacobi rotations.
 
-The first call compiles (about 5 s); the machine code is cached next to this module
+The first call compiles (about 7 s); the machine code is cached next to this module
 (numba's ``cache=True``), so later processes load it in a fraction of a second.
 """
 
