@@ -514,7 +514,6 @@ class FleshRelaxer:
             "tets": self.tets[cells],
             "vol": self._vol[cells],
             "dmat": self._dmat[cells],
-            "dmt": np.ascontiguousarray(np.transpose(self._dmat[cells], (0, 2, 1))),
             "ddt": self._ddt[cells],
         }
 
@@ -551,7 +550,8 @@ class FleshRelaxer:
         wj = -(2.0 / 9.0) * nf * h23 / h + 0.5 * k * (1.0 - 1.0 / (h * h))  # dW/dh
         c = wj * h1  # dW/dJ
         pk = (2.0 / 3.0) * h23[:, None, None] * f + c[:, None, None] * cof  # dW/dF
-        grad = vol[:, None, None] * np.transpose(pk @ patch["dmt"], (0, 2, 1))
+        dmt = np.transpose(dmat, (0, 2, 1))
+        grad = vol[:, None, None] * np.transpose(pk @ dmt, (0, 2, 1))
         if not hessian:
             return e, grad, None, None
         a = (2.0 / 3.0) * h23
@@ -562,7 +562,7 @@ class FleshRelaxer:
         # distortion's a |dF|^2 and the volume's curvature along cof F (the rest is
         # indefinite): a (D D^T) x I3 + max(cj, 0) u u^T with u = d J / d x (written for
         # every tetrahedron, then replaced on the others), times the rest volume
-        u = np.transpose(cof @ patch["dmt"], (0, 2, 1)).reshape(m, 12)
+        u = np.transpose(cof @ dmt, (0, 2, 1)).reshape(m, 12)
         u *= np.sqrt(vol * np.maximum(cj, 0.0))[:, None]
         hk = u[:, :, None] * u[:, None, :]
         # a degenerate or inverted one: the exact Hessian in F projected on its positive
@@ -1158,7 +1158,7 @@ class FleshRelaxer:
         cells = self._cells(free)
         tets = self.tets[cells]
         floor = self._floor[cells]
-        q = tet_quality(x, tets)
+        vols, q = relaxkernels.volumes_quality(x, tets)  # then from each step's
         if (q > floor).all():
             return
         patch = self._gather(cells)
@@ -1177,7 +1177,6 @@ class FleshRelaxer:
         e_prev, n_prev = np.inf, len(cells)
         stalled = 0
         best, x_best = (int((q <= 0.0).sum()), -q.min()), x[free].copy()
-        vols = tet_volumes(x, tets)  # then from each step's qualities
         for _ in range(self.maxiter):
             # Escobar's regularisation follows the most inverted tetrahedron: a gentle
             # barrier on a tangled patch, a steep one (delta -> 0) once it is untangled

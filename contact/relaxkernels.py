@@ -177,9 +177,7 @@ def _rotation_svd(
             u[i, 0] = work[i, 0] / n0
     n1 = np.sqrt(work[0, 1] ** 2 + work[1, 1] ** 2 + work[2, 1] ** 2)
     if n1 <= 1e-12 * n0:
-        for i in range(3):
-            ev[i, 0] = u[i, 0]
-        _orthogonal(ev[:, 0], w)
+        _orthogonal(u[:, 0], w)
         for i in range(3):
             u[i, 1] = w[i]
     else:
@@ -434,6 +432,16 @@ def volumes_quality(
     return vols, qual
 
 
+@njit(cache=True, inline="always")
+def _precondition(inv: NDArray[np.float64], r: NDArray[np.float64], z: NDArray[np.float64]) -> None:
+    """``z = P r``: each node's 3 x 3 block inverse, stored transposed in ``inv``."""
+    for k in range(inv.shape[0]):
+        for i in range(3):
+            z[3 * k + i] = (
+                inv[k, 0, i] * r[3 * k] + inv[k, 1, i] * r[3 * k + 1] + inv[k, 2, i] * r[3 * k + 2]
+            )
+
+
 @njit(cache=True)
 def block_cg(
     indptr: NDArray[np.int64],
@@ -456,34 +464,22 @@ def block_cg(
     """
     n = b.shape[0]
     nodes = n // 3
-    inv = np.empty((nodes, 3, 3))
+    inv = np.empty((nodes, 3, 3))  # transposed: inv[k].T is the inverse of block k
     blk = np.empty((3, 3))
     for k in range(nodes):
         for i in range(3):
             for j in range(3):
                 blk[i, j] = data[diag[9 * k + 3 * i + j]]
-        c00 = blk[1, 1] * blk[2, 2] - blk[1, 2] * blk[2, 1]
-        c01 = blk[1, 2] * blk[2, 0] - blk[1, 0] * blk[2, 2]
-        c02 = blk[1, 0] * blk[2, 1] - blk[1, 1] * blk[2, 0]
-        det = blk[0, 0] * c00 + blk[0, 1] * c01 + blk[0, 2] * c02
-        inv[k, 0, 0] = c00 / det
-        inv[k, 1, 0] = c01 / det
-        inv[k, 2, 0] = c02 / det
-        inv[k, 0, 1] = (blk[0, 2] * blk[2, 1] - blk[0, 1] * blk[2, 2]) / det
-        inv[k, 1, 1] = (blk[0, 0] * blk[2, 2] - blk[0, 2] * blk[2, 0]) / det
-        inv[k, 2, 1] = (blk[0, 1] * blk[2, 0] - blk[0, 0] * blk[2, 1]) / det
-        inv[k, 0, 2] = (blk[0, 1] * blk[1, 2] - blk[0, 2] * blk[1, 1]) / det
-        inv[k, 1, 2] = (blk[0, 2] * blk[1, 0] - blk[0, 0] * blk[1, 2]) / det
-        inv[k, 2, 2] = (blk[0, 0] * blk[1, 1] - blk[0, 1] * blk[1, 0]) / det
+        _cof(blk, inv[k])
+        det = blk[0, 0] * inv[k, 0, 0] + blk[1, 0] * inv[k, 1, 0] + blk[2, 0] * inv[k, 2, 0]
+        for i in range(3):
+            for j in range(3):
+                inv[k, i, j] /= det
     x = np.zeros(n)
     r = b.copy()
     z = np.empty(n)
     q = np.empty(n)
-    for k in range(nodes):
-        for i in range(3):
-            z[3 * k + i] = (
-                inv[k, i, 0] * r[3 * k] + inv[k, i, 1] * r[3 * k + 1] + inv[k, i, 2] * r[3 * k + 2]
-            )
+    _precondition(inv, r, z)
     p = z.copy()
     rz = 0.0
     bb = 0.0
@@ -508,13 +504,7 @@ def block_cg(
         for i in range(n):
             x[i] += alpha * p[i]
             r[i] -= alpha * q[i]
-        for k in range(nodes):
-            for i in range(3):
-                z[3 * k + i] = (
-                    inv[k, i, 0] * r[3 * k]
-                    + inv[k, i, 1] * r[3 * k + 1]
-                    + inv[k, i, 2] * r[3 * k + 2]
-                )
+        _precondition(inv, r, z)
         rz_old = rz
         rz = 0.0
         for i in range(n):
