@@ -271,73 +271,6 @@ def _density(
     return nf * h23 / 3.0 + 0.5 * kappa * (h + 1.0 / h)
 
 
-def _block_pattern(lt: NDArray[np.int64], nodes: int) -> tuple[NDArray[np.int64], ...]:
-    """The CSR pattern of the (3 ``nodes``)-square matrix assembled from 12 x 12 blocks.
-
-    ``lt`` (m, 4): each tetrahedron's nodes numbered among the unknowns' (-1 held).
-    Found on the node pairs (16 a tetrahedron) and spread to their 3 x 3 blocks, a
-    ninth of the sort of the entries themselves. Returns ``slot`` (the data index of
-    every entry of the element matrices, ``(m, 12, 12)`` raveled; ``len(indices)``, one
-    past the end, for an entry on a held node, to be dropped), ``indptr`` and
-    ``indices`` (columns sorted in every row) and ``diag`` (the data indices of every
-    node's diagonal 3 x 3 block, node by node, row-major). Then, for element matrices
-    of the form ``L x I3`` (``L`` (m, 4, 4), the same for the three components):
-    ``pair_slot`` (the node pair of every entry of ``L``, ``(m, 4, 4)`` raveled; one
-    past the last pair for a held node) and ``pair_diag`` (pairs, 3), the data indices
-    of each pair's block diagonal. The slots are gathered from the pairs' blocks in one
-    pass, without boolean masks over the entries (on a 6,000-tetrahedron patch of the
-    fine hand, 9 against 19 ms with the masks).
-    """
-    m = len(lt)
-    both = (lt[:, :, None] >= 0) & (lt[:, None, :] >= 0)  # (m, 4, 4)
-    key = lt[:, :, None] * nodes + lt[:, None, :]
-    key[~both] = -1
-    pairs, pslot = _unique_pairs(key, nodes)  # pairs[0] = -1 if any is held
-    pslot = pslot.reshape(m, 4, 4)
-    held = int(pairs[0] < 0)
-    pairs = pairs[held:]
-    brow, bcol = pairs // nodes, pairs % nodes
-    bptr = np.searchsorted(brow, np.arange(nodes + 1))
-    width = 3 * np.diff(bptr)  # entries in each of the block row's three rows
-    ij = np.arange(3)
-    # entry (pair p of block row r, i, j) lies at 9 bptr[r] + i width[r] + 3 (p - bptr[r]) + j
-    base = 9 * bptr[brow] + 3 * (np.arange(len(pairs)) - bptr[brow])
-    at = base[:, None, None] + ij[:, None] * width[brow][:, None, None] + ij
-    blocks = np.concatenate([np.full((held, 3, 3), 9 * len(pairs)), at])
-    slot = np.transpose(blocks[pslot], (0, 1, 3, 2, 4)).ravel()  # (m, 4, 3, 4, 3)
-    indptr = np.empty(3 * nodes + 1, dtype=np.int64)
-    indptr[:-1] = (9 * bptr[:-1, None] + ij * width[:, None]).ravel()
-    indptr[-1] = 9 * len(pairs)
-    indices = np.empty(at.size, dtype=np.int64)
-    indices[at.ravel()] = np.broadcast_to((3 * bcol)[:, None, None] + ij, at.shape).ravel()
-    own = np.flatnonzero(brow == bcol)
-    pair_slot = (pslot - held) % (len(pairs) + 1)  # the held entries' -1: one past the end
-    return slot, indptr, indices, at[own].ravel(), pair_slot.ravel(), at[:, ij, ij]
-
-
-#: Patches of up to this many free nodes find their node pairs on a table of every pair
-#: (a 4 MB mask and a 16 MB index at most) instead of sorting them.
-_PAIR_TABLE = 2048
-
-
-def _unique_pairs(key: NDArray[np.int64], nodes: int) -> tuple[NDArray[np.int64], ...]:
-    """``np.unique(key, return_inverse=True)`` of node-pair keys in ``-1 .. nodes**2 - 1``.
-
-    On a patch of up to :data:`_PAIR_TABLE` nodes, marked on a table of every pair
-    rather than sorted (a 7,747-tetrahedron patch of 1,014 nodes: 0.9 against 12.6 ms).
-    """
-    if nodes > _PAIR_TABLE:
-        pairs, inverse = np.unique(key, return_inverse=True)
-        return pairs, inverse.ravel()
-    k = key.ravel() + 1  # -1 (a held node) to 0
-    mark = np.zeros(nodes * nodes + 1, dtype=bool)
-    mark[k] = True
-    at = np.flatnonzero(mark)
-    table = np.zeros(nodes * nodes + 1, dtype=np.int32)
-    table[at] = np.arange(len(at), dtype=np.int32)
-    return at - 1, table[k].astype(np.int64)
-
-
 class FleshRelaxer:
     """Untangles and relaxes the free nodes around degraded tetrahedra of a posed mesh.
 
@@ -531,9 +464,10 @@ class FleshRelaxer:
         terms of :meth:`energy`.
         The Hessian in two parts, their sum: ``hk`` (m, 12, 12) and ``lap`` (m, 4, 4),
         whose ``lap x I3`` (the distortion's ``a |dF|^2`` on a fair tetrahedron, the same
-        for the three components) is assembled on node pairs (:func:`_block_pattern`),
-        a third of the work of adding it into ``hk``'s diagonal blocks. ``patch``: the
-        tetrahedra's data (:meth:`_gather`). Without ``hessian``: ``hk`` and ``lap`` None.
+        for the three components) is assembled on node pairs
+        (:func:`contact.relaxkernels.block_pattern`), a third of the work of adding it
+        into ``hk``'s diagonal blocks. ``patch``: the tetrahedra's data
+        (:meth:`_gather`). Without ``hessian``: ``hk`` and ``lap`` None.
         """
         tets, vol, dmat = patch["tets"], patch["vol"], patch["dmat"]
         cells = patch["cells"]
@@ -1170,7 +1104,9 @@ class FleshRelaxer:
         n = 3 * len(free)
         # the sparsity pattern once: entry k of the element matrices adds to slot[k]
         # (the entries on a held node go to a slot past the end, dropped)
-        slot, indptr, indices, diag, pair_slot, pair_diag = _block_pattern(local[tets], len(free))
+        slot, indptr, indices, diag, pair_slot, pair_diag = relaxkernels.block_pattern(
+            local[tets], len(free)
+        )
         gslot = dof.ravel()
         pair_diag = np.ascontiguousarray(pair_diag)
         eps = self.delta

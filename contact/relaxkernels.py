@@ -24,7 +24,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ["block_cg", "patch_energy", "step_terms", "volumes_quality"]
+__all__ = ["block_cg", "block_pattern", "patch_energy", "step_terms", "volumes_quality"]
 
 
 @njit(cache=True, inline="always")
@@ -513,3 +513,137 @@ def block_cg(
         for i in range(n):
             p[i] = z[i] + beta * p[i]
     return x
+
+
+@njit(cache=True)
+def block_pattern(
+    lt: NDArray[np.int64], nodes: int
+) -> tuple[
+    NDArray[np.int64],
+    NDArray[np.int64],
+    NDArray[np.int64],
+    NDArray[np.int64],
+    NDArray[np.int64],
+    NDArray[np.int64],
+]:
+    """The CSR pattern of the (3 ``nodes``)-square matrix assembled from 12 x 12 blocks.
+
+    ``lt`` (m, 4): each tetrahedron's nodes numbered among the unknowns' (-1 held). The
+    node pairs are found row by row (the tetrahedra around each node, their nodes
+    marked once and sorted) and spread to their 3 x 3 blocks.
+
+    Returns
+    -------
+    slot : ndarray, shape (m * 144,)
+        The data index of every entry of the element matrices (``(m, 12, 12)``
+        raveled); ``len(indices)``, one past the end, for an entry on a held node.
+    indptr, indices : ndarray
+        The pattern (columns sorted in every row).
+    diag : ndarray
+        The data indices of every node's diagonal 3 x 3 block (nodes in a tetrahedron
+        only, in order, each row-major).
+    pair_slot : ndarray, shape (m * 16,)
+        For element matrices ``L x I3`` (``L`` (m, 4, 4)): the node pair of every entry
+        of ``L`` (pairs in the pattern's order; one past the last for a held node).
+    pair_diag : ndarray, shape (pairs, 3)
+        The data indices of each pair's block diagonal.
+    """
+    m = lt.shape[0]
+    # the tetrahedra around each node (CSR)
+    count = np.zeros(nodes + 1, dtype=np.int64)
+    for t in range(m):
+        for a in range(4):
+            if lt[t, a] >= 0:
+                count[lt[t, a] + 1] += 1
+    for r in range(nodes):
+        count[r + 1] += count[r]
+    around = np.empty(count[nodes], dtype=np.int64)
+    fill = count[:-1].copy()
+    for t in range(m):
+        for a in range(4):
+            r = lt[t, a]
+            if r >= 0:
+                around[fill[r]] = t
+                fill[r] += 1
+    # each row's columns: the nodes of its tetrahedra, marked once, sorted
+    bptr = np.zeros(nodes + 1, dtype=np.int64)
+    mark = np.full(nodes, -1, dtype=np.int64)
+    for r in range(nodes):
+        k = 0
+        for s in range(count[r], count[r + 1]):
+            t = around[s]
+            for b in range(4):
+                c = lt[t, b]
+                if c >= 0 and mark[c] != r:
+                    mark[c] = r
+                    k += 1
+        bptr[r + 1] = bptr[r] + k
+    npairs = bptr[nodes]
+    bcol = np.empty(npairs, dtype=np.int64)
+    mark[:] = -1
+    where = np.empty(nodes, dtype=np.int64)  # a column's pair in the current row
+    pslot = np.full((m, 4, 4), npairs, dtype=np.int64)  # held: one past the last pair
+    for r in range(nodes):
+        k = bptr[r]
+        for s in range(count[r], count[r + 1]):
+            t = around[s]
+            for b in range(4):
+                c = lt[t, b]
+                if c >= 0 and mark[c] != r:
+                    mark[c] = r
+                    bcol[k] = c
+                    k += 1
+        row = bcol[bptr[r] : bptr[r + 1]]
+        row.sort()
+        for p in range(bptr[r], bptr[r + 1]):
+            where[bcol[p]] = p
+        for s in range(count[r], count[r + 1]):
+            t = around[s]
+            for a in range(4):
+                if lt[t, a] == r:
+                    for b in range(4):
+                        c = lt[t, b]
+                        if c >= 0:
+                            pslot[t, a, b] = where[c]
+    # entry (pair p of block row r, i, j) lies at 9 bptr[r] + i width[r] + 3 (p - bptr[r]) + j
+    ndata = 9 * npairs
+    at = np.empty((npairs + 1, 3, 3), dtype=np.int64)
+    indices = np.empty(ndata, dtype=np.int64)
+    indptr = np.empty(3 * nodes + 1, dtype=np.int64)
+    own = 0
+    for r in range(nodes):
+        width = 3 * (bptr[r + 1] - bptr[r])
+        for i in range(3):
+            indptr[3 * r + i] = 9 * bptr[r] + i * width
+        for p in range(bptr[r], bptr[r + 1]):
+            base = 9 * bptr[r] + 3 * (p - bptr[r])
+            if bcol[p] == r:
+                own += 1
+            for i in range(3):
+                for j in range(3):
+                    at[p, i, j] = base + i * width + j
+                    indices[base + i * width + j] = 3 * bcol[p] + j
+    indptr[3 * nodes] = ndata
+    at[npairs, :, :] = ndata  # a held entry: dropped
+    diag = np.empty(9 * own, dtype=np.int64)
+    k = 0
+    for r in range(nodes):
+        for p in range(bptr[r], bptr[r + 1]):
+            if bcol[p] == r:
+                for i in range(3):
+                    for j in range(3):
+                        diag[k] = at[p, i, j]
+                        k += 1
+    slot = np.empty(144 * m, dtype=np.int64)
+    for t in range(m):
+        for a in range(4):
+            for b in range(4):
+                p = pslot[t, a, b]
+                for i in range(3):
+                    for j in range(3):
+                        slot[144 * t + 12 * (3 * a + i) + 3 * b + j] = at[p, i, j]
+    pair_diag = np.empty((npairs, 3), dtype=np.int64)
+    for p in range(npairs):
+        for i in range(3):
+            pair_diag[p, i] = at[p, i, i]
+    return slot, indptr, indices, diag, pslot.ravel(), pair_diag

@@ -8,7 +8,6 @@ import warnings
 
 import numpy as np
 import pytest
-from scipy.sparse import csr_matrix
 
 import fem
 from contact.errors import PoseError, RigError
@@ -19,7 +18,6 @@ from contact.posing import (
     FleshRelaxer,
     HandPoser,
     Pose,
-    _block_pattern,
     _cofactor,
     _eigen_gradients,
     _eigenvectors,
@@ -274,39 +272,6 @@ def test_isotropic_eigensystem_projects_as_a_9x9_eigensolver():
     np.testing.assert_allclose(_eigen_gradients(u, vt, ev, dmat), expect_g, atol=1e-13)
 
 
-def test_block_pattern_is_the_pattern_of_the_assembled_matrix():
-    """The node-pair pattern, spread to 3 x 3 blocks, assembles what the entries' sort does."""
-    rng = np.random.default_rng(1)
-    nodes = 40
-    lt = rng.integers(-1, nodes, (200, 4))
-    slot, indptr, indices, diag, pair_slot, pair_diag = _block_pattern(lt, nodes)
-    dof = (3 * lt[:, :, None] + np.arange(3)).reshape(-1, 12)
-    dof[np.repeat(lt < 0, 3, axis=1)] = -1
-    rows = np.broadcast_to(dof[:, :, None], (200, 12, 12)).ravel()
-    cols = np.broadcast_to(dof[:, None, :], (200, 12, 12)).ravel()
-    keep = (rows >= 0) & (cols >= 0)
-    assert np.array_equal(slot == len(indices), ~keep)  # entries on a held node: dropped
-    values = rng.normal(size=keep.sum())
-    data = np.bincount(slot[keep], values, minlength=len(indices))
-    got = csr_matrix((data, indices, indptr), shape=(3 * nodes, 3 * nodes))
-    assert got.has_sorted_indices
-    n = 3 * nodes
-    expect = csr_matrix((values, (rows[keep], cols[keep])), shape=(n, n)).toarray()
-    np.testing.assert_allclose(got.toarray(), expect, rtol=0.0, atol=1e-12)
-    blocks = data[diag].reshape(-1, 3, 3)
-    present = np.unique(lt[lt >= 0])
-    for b, node in zip(blocks, present, strict=True):
-        np.testing.assert_allclose(b, expect[3 * node : 3 * node + 3, 3 * node : 3 * node + 3])
-    # element matrices L x I3, assembled on the node pairs, as the 12 x 12 ones
-    lap = rng.normal(size=(200, 4, 4))
-    full = np.einsum("mab,ij->maibj", lap, np.eye(3)).reshape(-1)
-    data = np.bincount(slot, full, minlength=len(indices) + 1)[:-1]
-    pairs = np.bincount(pair_slot, lap.ravel(), minlength=len(pair_diag) + 1)[:-1]
-    on_pairs = np.zeros(len(indices))
-    on_pairs[pair_diag] += pairs[:, None]
-    np.testing.assert_allclose(on_pairs, data, rtol=0.0, atol=1e-12)
-
-
 def test_harmonic_fill_reproduces_an_affine_displacement(hand, poser):
     """The fill's P1 harmonic extension is exact on an affine field: scrambled inner free
     nodes among nodes displaced by ``u = A x + b`` go back onto it (on the skin the fill
@@ -460,25 +425,6 @@ def test_a_warm_start_is_mended_around_its_degraded_tetrahedra_alone(hand, poser
     ring = relaxer._ring(np.unique(relaxer.tets[low]), relaxer.rings)
     assert node in moved and np.isin(moved, ring).all()
     assert len(moved) < 0.5 * len(moved_cold)
-
-
-def test_unique_pairs_on_the_table_equal_numpys_sort(monkeypatch):
-    """Node-pair keys (``-1`` for a held node) found on the table and by np.unique agree."""
-    from contact import posing
-
-    rng = np.random.default_rng(2)
-    nodes = 50
-    lt = rng.integers(-1, nodes, size=(300, 4))
-    both = (lt[:, :, None] >= 0) & (lt[:, None, :] >= 0)
-    key = lt[:, :, None] * nodes + lt[:, None, :]
-    key[~both] = -1
-    pairs, inverse = np.unique(key, return_inverse=True)
-    for table in (posing._PAIR_TABLE, nodes - 1):  # the table, then the sort
-        monkeypatch.setattr(posing, "_PAIR_TABLE", table)
-        p, inv = posing._unique_pairs(key, nodes)
-        np.testing.assert_array_equal(p, pairs)
-        np.testing.assert_array_equal(inv, inverse.ravel())
-        np.testing.assert_array_equal(p[inv], key.ravel())
 
 
 def test_warm_frames_keep_the_cold_frames_quality_at_a_quarter_of_the_limits():

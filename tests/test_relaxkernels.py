@@ -12,7 +12,6 @@ from contact.posing import (
     _CG_RTOL,
     _EXACT_J,
     FleshRelaxer,
-    _block_pattern,
     tet_quality,
     tet_volumes,
 )
@@ -36,7 +35,8 @@ def _reference(relaxer: FleshRelaxer, x: np.ndarray, free: np.ndarray, delta: fl
     dof = (3 * local[tets][:, :, None] + np.arange(3)).reshape(-1, 12)
     dof[np.repeat(local[tets] < 0, 3, axis=1)] = -1
     n = 3 * len(free)
-    slot, indptr, indices, diag, pair_slot, pair_diag = _block_pattern(local[tets], len(free))
+    pattern = relaxkernels.block_pattern(local[tets], len(free))
+    slot, indptr, indices, diag, pair_slot, pair_diag = pattern
     e, g, hk, lap = relaxer._terms(x, patch, delta)
     gslot = dof.ravel()
     keep = gslot >= 0
@@ -143,3 +143,42 @@ def test_volumes_refuse_bad_input():
         tet_volumes(np.zeros((4, 2)), [[0, 1, 2, 3]])
     with pytest.raises(ValueError, match=r"outside 0\.\.3"):
         tet_quality(np.zeros((4, 3)), [[0, 1, 2, 4]])
+
+
+@pytest.mark.parametrize(("nodes", "m"), [(40, 200), (6, 3), (3000, 500)])
+def test_block_pattern_is_the_pattern_of_the_assembled_matrix(nodes, m):
+    """The node-pair pattern, spread to 3 x 3 blocks, assembles what scipy's COO sum does.
+
+    Random tetrahedra with held nodes (-1); few cells on many nodes leave nodes in no
+    tetrahedron (empty rows), as (6, 3) may leave some whole tetrahedra held.
+    """
+    rng = np.random.default_rng(1)
+    lt = rng.integers(-1, nodes, (m, 4))
+    slot, indptr, indices, diag, pair_slot, pair_diag = relaxkernels.block_pattern(lt, nodes)
+    dof = (3 * lt[:, :, None] + np.arange(3)).reshape(-1, 12)
+    dof[np.repeat(lt < 0, 3, axis=1)] = -1
+    rows = np.broadcast_to(dof[:, :, None], (m, 12, 12)).ravel()
+    cols = np.broadcast_to(dof[:, None, :], (m, 12, 12)).ravel()
+    keep = (rows >= 0) & (cols >= 0)
+    assert np.array_equal(slot == len(indices), ~keep)  # entries on a held node: dropped
+    values = rng.normal(size=keep.sum())
+    data = np.bincount(slot[keep], values, minlength=len(indices))
+    got = sp.csr_matrix((data, indices, indptr), shape=(3 * nodes, 3 * nodes))
+    assert got.has_sorted_indices
+    n = 3 * nodes
+    expect = sp.csr_matrix((values, (rows[keep], cols[keep])), shape=(n, n))
+    assert abs(got - expect).max() <= 1e-12
+    blocks = data[diag].reshape(-1, 3, 3)
+    present = np.unique(lt[lt >= 0])
+    for b, node in zip(blocks, present, strict=True):
+        np.testing.assert_allclose(
+            b, expect[3 * node : 3 * node + 3, 3 * node : 3 * node + 3].toarray()
+        )
+    # element matrices L x I3, assembled on the node pairs, as the 12 x 12 ones
+    lap = rng.normal(size=(m, 4, 4))
+    full = np.einsum("mab,ij->maibj", lap, np.eye(3)).reshape(-1)
+    data = np.bincount(slot, full, minlength=len(indices) + 1)[:-1]
+    pairs = np.bincount(pair_slot, lap.ravel(), minlength=len(pair_diag) + 1)[:-1]
+    on_pairs = np.zeros(len(indices))
+    on_pairs[pair_diag] += pairs[:, None]
+    np.testing.assert_allclose(on_pairs, data, rtol=0.0, atol=1e-12)
