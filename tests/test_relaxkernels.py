@@ -25,6 +25,21 @@ def _box_relaxer() -> FleshRelaxer:
     return FleshRelaxer(pts, mesh.cells["tetra"], boundary)
 
 
+def _entry_slots(pair_slot: np.ndarray, pair_diag: np.ndarray, ndata: int) -> np.ndarray:
+    """The value index of every entry of the (m, 12, 12) element matrices, raveled.
+
+    As :func:`contact.relaxkernels.block_pattern` says: ``pair_diag[p, 0] + i w + j``;
+    ``ndata`` (one past the end: dropped) on a held node.
+    """
+    p = pair_slot.reshape(-1, 4, 4)
+    b0 = np.append(pair_diag[:, 0], ndata)[p][:, :, None, :, None]
+    w = np.append(pair_diag[:, 1] - pair_diag[:, 0] - 1, 0)[p][:, :, None, :, None]
+    i = np.arange(3)
+    slot = b0 + i[:, None, None] * w + i
+    held = (p == len(pair_diag))[:, :, None, :, None]
+    return np.where(held, ndata, slot).ravel()
+
+
 def _reference(relaxer: FleshRelaxer, x: np.ndarray, free: np.ndarray, delta: float) -> tuple:
     """The numpy terms (``_terms``) assembled as the Newton step did before the kernels."""
     cells = relaxer._cells(free)
@@ -35,8 +50,8 @@ def _reference(relaxer: FleshRelaxer, x: np.ndarray, free: np.ndarray, delta: fl
     dof = (3 * local[tets][:, :, None] + np.arange(3)).reshape(-1, 12)
     dof[np.repeat(local[tets] < 0, 3, axis=1)] = -1
     n = 3 * len(free)
-    pattern = relaxkernels.block_pattern(local[tets], len(free))
-    slot, indptr, indices, diag, pair_slot, pair_diag = pattern
+    indptr, indices, diag, pair_slot, pair_diag = relaxkernels.block_pattern(local[tets], len(free))
+    slot = _entry_slots(pair_slot, pair_diag, len(indices))
     e, g, hk, lap = relaxer._terms(x, patch, delta)
     gslot = dof.ravel()
     keep = gslot >= 0
@@ -45,7 +60,7 @@ def _reference(relaxer: FleshRelaxer, x: np.ndarray, free: np.ndarray, delta: fl
     data[pair_diag] += np.bincount(pair_slot, lap.ravel(), minlength=len(pair_diag) + 1)[:-1, None]
     kernel = relaxkernels.step_terms(
         x, tets, patch["dmat"], patch["ddt"], patch["vol"], delta * delta, relaxer.kappa,
-        _EXACT_J, gslot, slot, pair_slot, np.ascontiguousarray(pair_diag), n, len(indices),
+        _EXACT_J, gslot, pair_slot, pair_diag, n, len(indices),
     )  # fmt: skip
     j = np.linalg.det(
         np.transpose(x[tets], (0, 2, 1)) @ patch["dmat"]
@@ -154,7 +169,8 @@ def test_block_pattern_is_the_pattern_of_the_assembled_matrix(nodes, m):
     """
     rng = np.random.default_rng(1)
     lt = rng.integers(-1, nodes, (m, 4))
-    slot, indptr, indices, diag, pair_slot, pair_diag = relaxkernels.block_pattern(lt, nodes)
+    indptr, indices, diag, pair_slot, pair_diag = relaxkernels.block_pattern(lt, nodes)
+    slot = _entry_slots(pair_slot, pair_diag, len(indices))
     dof = (3 * lt[:, :, None] + np.arange(3)).reshape(-1, 12)
     dof[np.repeat(lt < 0, 3, axis=1)] = -1
     rows = np.broadcast_to(dof[:, :, None], (m, 12, 12)).ravel()
