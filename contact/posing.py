@@ -426,7 +426,7 @@ class FleshRelaxer:
         whole-mesh quality costs several times a mild pose's Newton steps).
         """
         cells = self._cells(nodes)
-        q[cells] = tet_quality(x, self.tets[cells])
+        q[cells] = tet_quality(x, np.take(self.tets, cells, axis=0))
 
     def energy(
         self, x: NDArray[np.float64], cells: NDArray[np.int64] | None = None
@@ -441,13 +441,17 @@ class FleshRelaxer:
         return float(e.sum()), grad
 
     def _gather(self, cells: NDArray[np.int64]) -> dict[str, NDArray]:
-        """The per-tetrahedron data of ``cells``, taken once for a patch's Newton steps."""
+        """The per-tetrahedron data of ``cells``, taken once for a patch's Newton steps.
+
+        ``np.take`` along the first axis: 0.10 against 0.26 ms for indexing with
+        ``cells`` (5,000 of 200,000 tetrahedra).
+        """
         return {
             "cells": cells,
-            "tets": self.tets[cells],
-            "vol": self._vol[cells],
-            "dmat": self._dmat[cells],
-            "ddt": self._ddt[cells],
+            "tets": np.take(self.tets, cells, axis=0),
+            "vol": np.take(self._vol, cells),
+            "dmat": np.take(self._dmat, cells, axis=0),
+            "ddt": np.take(self._ddt, cells, axis=0),
         }
 
     def _energy(self, x: NDArray[np.float64], patch: dict[str, NDArray], delta: float) -> float:
@@ -1090,7 +1094,7 @@ class FleshRelaxer:
         (a warm start from the previous frame often is): no step is taken.
         """
         cells = self._cells(free)
-        tets = self.tets[cells]
+        tets = np.take(self.tets, cells, axis=0)
         floor = self._floor[cells]
         vols, q = relaxkernels.volumes_quality(x, tets)  # then from each step's
         if (q > floor).all():
