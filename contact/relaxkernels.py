@@ -24,7 +24,14 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ["block_cg", "block_pattern", "patch_energy", "step_terms", "volumes_quality"]
+__all__ = [
+    "block_cg",
+    "block_pattern",
+    "patch_energy",
+    "step_terms",
+    "untangle_terms",
+    "volumes_quality",
+]
 
 
 @njit(cache=True, inline="always")
@@ -696,3 +703,44 @@ def block_pattern(
         for i in range(3):
             pair_diag[p, i] = at[p, i, i]
     return indptr, indices, diag, pslot.ravel(), pair_diag
+
+
+@njit(cache=True)
+def untangle_terms(
+    x: NDArray[np.float64],
+    tets: NDArray[np.int64],
+    lt: NDArray[np.int64],
+    dmat: NDArray[np.float64],
+    vol: NDArray[np.float64],
+    target: float,
+    nfree: int,
+) -> tuple[float, NDArray[np.float64]]:
+    """The untangling energy ``sum V_rest max(0, target - J)^2`` and its gradient.
+
+    Over the tetrahedra ``tets`` at ``x`` (see ``FleshRelaxer._untangle``); the gradient
+    on the free nodes alone, ``lt`` (m, 4) each tetrahedron's nodes numbered among them
+    (-1 held), shape ``(3 nfree,)``. ``dJ/dx_a = cof(F) D_a``.
+    """
+    grad = np.zeros(3 * nfree)
+    f = np.empty((3, 3))
+    cof = np.empty((3, 3))
+    energy = 0.0
+    for t in range(tets.shape[0]):
+        _gradient(x, tets[t], dmat, t, f)
+        _cof(f, cof)
+        j = f[0, 0] * cof[0, 0] + f[1, 0] * cof[1, 0] + f[2, 0] * cof[2, 0]
+        short = target - j
+        if short <= 0.0:
+            continue
+        energy += vol[t] * short * short
+        w = -2.0 * vol[t] * short
+        for a in range(4):
+            node = lt[t, a]
+            if node < 0:
+                continue
+            for i in range(3):
+                s = 0.0
+                for k in range(3):
+                    s += cof[i, k] * dmat[t, a, k]
+                grad[3 * node + i] += w * s
+    return energy, grad

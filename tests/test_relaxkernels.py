@@ -198,3 +198,36 @@ def test_block_pattern_is_the_pattern_of_the_assembled_matrix(nodes, m):
     on_pairs = np.zeros(len(indices))
     on_pairs[pair_diag] += pairs[:, None]
     np.testing.assert_allclose(on_pairs, data, rtol=0.0, atol=1e-12)
+
+
+def test_untangle_terms_by_volumes_and_finite_differences():
+    """``sum V_rest max(0, t - J)^2`` from the volumes, its gradient by central differences."""
+    relaxer = _box_relaxer()
+    free = np.flatnonzero(~relaxer.fixed)
+    x = relaxer.rest.copy()
+    x[free] += 0.15 * np.random.default_rng(5).standard_normal((len(free), 3))
+    cells = relaxer._cells(free)
+    tets = relaxer.tets[cells]
+    local = np.full(len(x), -1)
+    local[free] = np.arange(len(free))
+    vol, dmat = relaxer._vol[cells], relaxer._dmat[cells]
+    target = 0.05
+
+    def energy(y: np.ndarray) -> tuple[float, np.ndarray]:
+        return relaxkernels.untangle_terms(y, tets, local[tets], dmat, vol, target, len(free))
+
+    e, grad = energy(x)
+    j = tet_volumes(x, tets) / vol
+    assert (j < target).sum() >= 5  # some tetrahedra are short of the target
+    assert e == pytest.approx(float(vol @ np.maximum(target - j, 0.0) ** 2), rel=1e-12)
+    h = 1e-7
+    moving = np.flatnonzero(grad)  # the DOFs of the tetrahedra short of the target
+    assert moving.size >= 12
+    for k in np.random.default_rng(6).choice(moving, 12, replace=False):
+        y = x.copy()
+        y[free[k // 3], k % 3] += h
+        up = energy(y)[0]
+        y[free[k // 3], k % 3] -= 2 * h
+        down = energy(y)[0]
+        fd = (up - down) / (2 * h)
+        assert grad[k] == pytest.approx(fd, rel=1e-5, abs=1e-9 * np.abs(grad).max())
