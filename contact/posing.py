@@ -125,16 +125,6 @@ _WARM_RETRY = 0.5
 #: stop 0.14 s, 45 steps); 4 frames changed, with the same qualities, 34 fewer steps in
 #: all. At 4, 6 and 8 the slowest frame took 0.17-0.18 s, at 10 0.20 s.
 _MEND_PATIENCE = 8
-#: A first pass's Newton run that leaves at most this many tetrahedra of its part
-#: inverted is kept (the next pass, widened around them, mends them on a small patch)
-#: rather than followed by a run over the whole part from the next start. Measured on
-#: 80 cold poses of the fine hand at the full limits (two samples) and 80 at three
-#: quarters: mean 0.135 / 0.105 / 0.042 -> 0.117 / 0.094 / 0.043 s a pose, slowest
-#: 0.62 / 0.68 / 0.34 -> 0.34 / 0.45 / 0.23 s (a wrist part of 1,773 free nodes had
-#: left 2 inverted after 25 steps, then run 38 more from the mapping to leave 1), the
-#: same worst qualities, none inverted; 20 took the same steps, 0 (every leftover
-#: retried) the most.
-_FEW_LEFT = 5
 #: A tetrahedron whose ``J = det F`` is at most this takes the exact Hessian of its energy,
 #: projected on its positive eigenvalues; a fairer one its convex part.
 _EXACT_J = 0.25
@@ -646,9 +636,8 @@ class FleshRelaxer:
         of the degraded tetrahedra ``bad`` and one ring around them, where the mapping
         folds the flesh. Each connected part of the patch ``free`` (see
         :meth:`_minimise`) starts from the one of lower energy; should Newton's method
-        leave more than :data:`_FEW_LEFT` tetrahedra of the part inverted, it is run
-        again from the other start and the better result kept (fewer inverted, then the
-        better worst quality).
+        leave a tetrahedron of the part inverted, it is run again from the other start
+        and the better result kept (fewer inverted, then the better worst quality).
         Measured on the fine hand's wrist at three quarters of its limits: from the
         mapping's fold (536 inverted tetrahedra) 27 Newton steps, from its fill (320
         inverted, a third of the energy) 4. ``warm``: a third start (see
@@ -698,7 +687,7 @@ class FleshRelaxer:
                 # a warm start that leaves a tetrahedron well below the floor may keep
                 # the previous frame's worst one: the next start is tried too, the best
                 # kept (see _WARM_RETRY)
-                if key[0] <= _FEW_LEFT and not (i == 2 and (qp <= _WARM_RETRY * floor).any()):
+                if key[0] == 0 and not (i == 2 and (qp <= _WARM_RETRY * floor).any()):
                     break
             assert best is not None
             x[part] = best[1]
