@@ -5,8 +5,9 @@ small arrays, whose overhead rather than arithmetic set its time (1.4-1.7 ms on 
 50-node patch: the element terms 43 %, the conjugate gradients 22 %, the assembly 14 %).
 Here, compiled by numba, each tetrahedron's energy, gradient and projected Hessian are
 computed and added into the patch's matrix in one pass (no (m, 12, 12) element matrices
-in between); the line search's energy, the volumes and qualities, and the preconditioned
-conjugate gradients are one call each.
+in between); the line search's energy, the volumes and qualities, the patch's matrix
+pattern (by node pairs) and the preconditioned conjugate gradients (the product by 3 x 3
+blocks) are one call each, and so is the restarts' untangling energy with its gradient.
 
 The arithmetic is that of the numpy reference, ``FleshRelaxer._terms`` (tested equal to
 round-off); the order of some sums differs. A degenerate or inverted tetrahedron's
@@ -14,7 +15,7 @@ eigensystem is computed per tetrahedron: the signed SVD of ``F`` from the eigenv
 of ``F^T F`` and Gram-Schmidt (as :func:`fem.rotation_svd3`), its 3 x 3 symmetric
 eigenproblems by cyclic Jacobi rotations.
 
-The first call compiles (about 7 s); the machine code is cached next to this module
+The first call compiles (about 9 s); the machine code is cached next to this module
 (numba's ``cache=True``), so later processes load it in a fraction of a second.
 """
 
