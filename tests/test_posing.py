@@ -445,3 +445,37 @@ def test_warm_frames_keep_the_cold_frames_quality_at_a_quarter_of_the_limits():
         previous = fine.pose(a, check=False, start=previous)
         warm = min(warm, previous.min_quality)
     assert warm >= 0.95 * cold > 0.02
+
+
+def test_newton_patience_stops_a_run_that_finds_no_better_iterate(monkeypatch):
+    """A run whose worst tetrahedron stays inverted at the same quality finds no better
+    iterate (fewer inverted, then a better worst quality): with ``patience`` it stops
+    after that many steps; without, it goes on until its energy stalls. Either way it
+    keeps the best iterate: its start. (The worst tetrahedron is held at -0.1 by a
+    stand-in for the qualities.)"""
+    from contact import relaxkernels
+
+    mesh = fem.box_mesh((1.0, 1.0, 1.0), (3, 3, 3), element="tetra")
+    pts = mesh.points
+    fixed = np.any((pts <= 1e-12) | (pts >= 1.0 - 1e-12), axis=1)
+    free = np.flatnonzero(~fixed)
+    x = pts.copy()
+    x[free] += 0.05 * np.random.default_rng(0).standard_normal((len(free), 3))
+    real = relaxkernels.volumes_quality
+
+    def held_worst(y, tets):
+        vols, q = real(y, tets)
+        q = q.copy()
+        q[0] = -0.1
+        return vols, q
+
+    monkeypatch.setattr(relaxkernels, "volumes_quality", held_worst)
+    steps = {}
+    for patience in (0, 2):
+        relaxer = FleshRelaxer(pts, mesh.cells["tetra"], fixed)
+        relaxer.stats = dict.fromkeys(("iterations", "stalled"), 0)
+        y = x.copy()
+        relaxer._newton(y, free, patience)
+        steps[patience] = relaxer.stats["iterations"]
+        np.testing.assert_array_equal(y, x)
+    assert steps[2] == 2 < steps[0], steps
