@@ -529,6 +529,18 @@ def block_cg(
     """
     n = b.shape[0]
     nodes = n // 3
+    if n % 3 or indptr.shape[0] != n + 1:
+        raise ValueError("block_cg: the matrix must have 3 rows a node and b one value a row")
+    for r in range(nodes):
+        w = indptr[3 * r + 1] - indptr[3 * r]
+        if (
+            w % 3
+            or indptr[3 * r + 2] - indptr[3 * r + 1] != w
+            or indptr[3 * r + 3] - indptr[3 * r + 2] != w
+        ):
+            raise ValueError(
+                "block_cg: the matrix is not made of full 3 x 3 blocks (block_pattern)"
+            )
     inv = np.empty((nodes, 3, 3))  # transposed: inv[k].T is the inverse of block k
     blk = np.empty((3, 3))
     for k in range(nodes):

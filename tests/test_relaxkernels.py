@@ -231,3 +231,16 @@ def test_untangle_terms_by_volumes_and_finite_differences():
         down = energy(y)[0]
         fd = (up - down) / (2 * h)
         assert grad[k] == pytest.approx(fd, rel=1e-5, abs=1e-9 * np.abs(grad).max())
+
+
+def test_block_cg_refuses_a_matrix_not_of_3x3_blocks():
+    """The product by blocks reads one column index a block: a plain CSR matrix (here a
+    tridiagonal one) is refused, not multiplied wrongly."""
+    n = 6
+    a = sp.diags([-1.0, 4.0, -1.0], [-1, 0, 1], shape=(n, n), format="csr")
+    indptr, indices = a.indptr.astype(np.int64), a.indices.astype(np.int64)
+    diag = np.arange(18)
+    with pytest.raises(ValueError, match="3 x 3 blocks"):
+        relaxkernels.block_cg(indptr, indices, a.data, diag, np.ones(n), 1e-8, 100)
+    with pytest.raises(ValueError, match="3 rows a node"):
+        relaxkernels.block_cg(indptr, indices, a.data, diag, np.ones(5), 1e-8, 100)
