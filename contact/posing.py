@@ -1104,17 +1104,17 @@ class FleshRelaxer:
         vols, q = relaxkernels.volumes_quality(x, tets)  # then from each step's
         if (q > floor).all():
             return
-        patch = self._gather(cells)
-        vol, dmat, ddt = patch["vol"], patch["dmat"], patch["ddt"]
+        vol = np.take(self._vol, cells)
+        dmat = np.take(self._dmat, cells, axis=0)
+        ddt = np.take(self._ddt, cells, axis=0)
         local = np.full(len(x), -1, dtype=np.int64)
         local[free] = np.arange(len(free))
-        dof = (3 * local[tets][:, :, None] + np.arange(3)).reshape(-1, 12)
-        dof[np.repeat(local[tets] < 0, 3, axis=1)] = -1
+        lt = local[tets]
+        dof = (3 * lt[:, :, None] + np.arange(3)).reshape(-1, 12)
+        dof[np.repeat(lt < 0, 3, axis=1)] = -1
         n = 3 * len(free)
         # the sparsity pattern once (entries on a held node dropped)
-        indptr, indices, diag, pair_slot, pair_diag = relaxkernels.block_pattern(
-            local[tets], len(free)
-        )
+        indptr, indices, diag, pair_slot, pair_diag = relaxkernels.block_pattern(lt, len(free))
         gslot = dof.ravel()
         eps = self.delta
         e_prev, n_prev = np.inf, len(cells)

@@ -684,37 +684,31 @@ def block_pattern(
                             pslot[t, a, b] = where[c]
     # entry (pair p of block row r, i, j) lies at 9 bptr[r] + i width[r] + 3 (p - bptr[r]) + j
     ndata = 9 * npairs
-    at = np.empty((npairs + 1, 3, 3), dtype=np.int64)
     indices = np.empty(ndata, dtype=np.int64)
     indptr = np.empty(3 * nodes + 1, dtype=np.int64)
-    own = 0
+    pair_diag = np.empty((npairs, 3), dtype=np.int64)
+    present = 0  # nodes in a tetrahedron: each has its own pair, the diagonal block
+    for r in range(nodes):
+        if bptr[r + 1] > bptr[r]:
+            present += 1
+    diag = np.empty(9 * present, dtype=np.int64)
+    k = 0
     for r in range(nodes):
         width = 3 * (bptr[r + 1] - bptr[r])
         for i in range(3):
             indptr[3 * r + i] = 9 * bptr[r] + i * width
         for p in range(bptr[r], bptr[r + 1]):
             base = 9 * bptr[r] + 3 * (p - bptr[r])
-            if bcol[p] == r:
-                own += 1
             for i in range(3):
+                pair_diag[p, i] = base + i * width + i
                 for j in range(3):
-                    at[p, i, j] = base + i * width + j
                     indices[base + i * width + j] = 3 * bcol[p] + j
-    indptr[3 * nodes] = ndata
-    at[npairs, :, :] = ndata  # a held entry: dropped
-    diag = np.empty(9 * own, dtype=np.int64)
-    k = 0
-    for r in range(nodes):
-        for p in range(bptr[r], bptr[r + 1]):
             if bcol[p] == r:
                 for i in range(3):
                     for j in range(3):
-                        diag[k] = at[p, i, j]
+                        diag[k] = base + i * width + j
                         k += 1
-    pair_diag = np.empty((npairs, 3), dtype=np.int64)
-    for p in range(npairs):
-        for i in range(3):
-            pair_diag[p, i] = at[p, i, i]
+    indptr[3 * nodes] = ndata
     return indptr, indices, diag, pslot.ravel(), pair_diag
 
 
