@@ -273,3 +273,30 @@ def test_marked_compliance_equals_full_back_solves(free):
     # too many marks: refused, nothing refactored
     assert not s.mark(np.arange(mesh.n_dofs))
     assert s.n_factorizations == 2
+
+
+@pytest.mark.skipif("pardiso" not in BACKENDS, reason="partial solves need PARDISO")
+def test_partial_solves_in_chunks_keep_their_work_arrays(body, monkeypatch):
+    """Partial solves taken in chunks of columns (kept full-length arrays, zero off the
+    marks) equal the dense inverse on the marks, call after call; a right-hand side
+    that is not one row per marked DOF is refused."""
+    import fem.linsolve as fl
+
+    mesh, k = body
+    held = fem.node_dofs(np.flatnonzero(mesh.points[:, 0] == 0))
+    free = np.setdiff1d(np.arange(k.shape[0]), held)
+    a = k[free][:, free].tocsr()
+    marked = np.arange(3, a.shape[0], 4)
+    inv = np.linalg.inv(a.toarray())[np.ix_(marked, marked)]
+    monkeypatch.setattr(fl, "PARTIAL_WORK", 3 * a.shape[0])  # three columns a chunk
+    f = fem.factorize(a, "pardiso", marked=marked)
+    rng = np.random.default_rng(2)
+    for ncol in (7, 2, 5):  # chunks of 3, 3, 1; then fewer columns than kept
+        b = rng.standard_normal((marked.size, ncol))
+        np.testing.assert_allclose(f.solve_marked(b), inv @ b, rtol=1e-10, atol=1e-14)
+        assert f._work[0].shape[1] == 3
+        assert not f._work[0][np.setdiff1d(np.arange(a.shape[0]), marked)].any()
+    b = rng.standard_normal(marked.size)
+    np.testing.assert_allclose(f.solve_marked(b), inv @ b, rtol=1e-10, atol=1e-14)
+    with pytest.raises(fem.SolverError, match=f"expected {marked.size} rows"):
+        f.solve_marked(np.ones(marked.size + 1))
