@@ -19,7 +19,7 @@ from typing import Protocol
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from .errors import SolverError
 
@@ -42,6 +42,8 @@ class Factorization(Protocol):
     backend: str
     #: DOFs whose partial solves :meth:`solve_marked` serves (empty: none).
     marked: NDArray[np.int64]
+    #: Solutions of the right-hand sides handed to :func:`factorize` (None: none given).
+    first: NDArray[np.float64] | None
 
     def solve(self, b: NDArray[np.float64]) -> NDArray[np.float64]:
         """Solve ``A x = b`` for ``b`` of shape ``(n,)`` or ``(n, k)``."""
@@ -59,7 +61,12 @@ class _Pardiso:
 
     backend = "pardiso"
 
-    def __init__(self, a: sp.csr_matrix, marked: NDArray[np.int64] | None = None) -> None:
+    def __init__(
+        self,
+        a: sp.csr_matrix,
+        marked: NDArray[np.int64] | None = None,
+        rhs: NDArray[np.float64] | None = None,
+    ) -> None:
         import pypardiso
 
         self.n = a.shape[0]
@@ -93,19 +100,28 @@ class _Pardiso:
                 "or solve it as a free body"
             ) from exc
         self.factor_nnz = int(iparm[17])
-        self._check_regular(a)
+        self.first = self._check_regular(a, rhs)
 
-    def _check_regular(self, a: sp.csr_matrix) -> None:
+    def _check_regular(
+        self, a: sp.csr_matrix, rhs: NDArray[np.float64] | None = None
+    ) -> NDArray[np.float64] | None:
         """Refuse a singular matrix whose pivots round to tiny positive values.
 
         Cholesky stops at a zero or negative pivot, but a free mode of a stiffness (a
         body held at one node, free to turn) can leave pivots of round-off size and
         either sign. Their inverse floods a solve: the residual of one solve with a
         fixed right-hand side tells (about 1e-12 for a regular stiffness, order one
-        for a singular one), at the cost of one solve.
+        for a singular one), at the cost of one solve. Right-hand sides ``rhs`` wanted
+        right after the factorisation share its sweeps through the factor (read once for
+        all): their solutions are returned.
         """
         b = np.random.default_rng(0).standard_normal(self.n)
-        x = self.solve(b)
+        first = None
+        if rhs is None:
+            x = self.solve(b)
+        else:
+            both = self.solve(np.column_stack([b, rhs.reshape(self.n, -1)]))
+            x, first = both[:, 0], both[:, 1:].reshape(rhs.shape)
         res = float(np.linalg.norm(a @ x - b)) / float(np.linalg.norm(b))
         if not (res <= REGULAR_RESIDUAL):
             raise SolverError(
@@ -113,6 +129,7 @@ class _Pardiso:
                 "met round-off pivots); is the body free to move? prescribe displacements "
                 "that hold it, or solve it as a free body"
             )
+        return first
 
     def _call(self, phase: int, b: NDArray, x: NDArray, perm: NDArray[np.int32]) -> None:
         import pypardiso
@@ -231,7 +248,7 @@ class _SuperLU:
     backend = "superlu"
     marked = np.zeros(0, np.int64)
 
-    def __init__(self, a: sp.csr_matrix) -> None:
+    def __init__(self, a: sp.csr_matrix, rhs: NDArray[np.float64] | None = None) -> None:
         self.n = a.shape[0]
         try:
             self._lu = spla.splu(
@@ -252,6 +269,7 @@ class _SuperLU:
                 "is the body free to move? prescribe displacements that hold it, or solve it "
                 "as a free body"
             )
+        self.first = None if rhs is None else self.solve(rhs)
 
     def solve(self, b: NDArray[np.float64]) -> NDArray[np.float64]:
         x = self._lu.solve(np.asarray(b, dtype=np.float64))
@@ -314,7 +332,10 @@ def resolve_backend(backend: str = "auto") -> str:
 
 
 def factorize(
-    a: sp.spmatrix, backend: str = "auto", marked: NDArray[np.int64] | None = None
+    a: sp.spmatrix,
+    backend: str = "auto",
+    marked: NDArray[np.int64] | None = None,
+    rhs: ArrayLike | None = None,
 ) -> Factorization:
     """Factor a sparse symmetric positive definite matrix.
 
@@ -328,6 +349,9 @@ def factorize(
         Rows whose partial solves are wanted (``solve_marked``: right-hand sides and
         solutions on them only); PARDISO orders them last. Ignored by SuperLU (its
         ``marked`` stays empty).
+    rhs : array_like, shape (n,) or (n, k), optional
+        Right-hand sides to solve at once: their solutions are the result's ``first``
+        (PARDISO solves them in the sweeps of its test solve: the factor is read once).
 
     Returns
     -------
@@ -343,12 +367,16 @@ def factorize(
         raise SolverError(f"matrix must be square, got shape {a.shape}")
     backend = resolve_backend(backend)
     a = sp.csr_matrix(a, dtype=np.float64)
+    b = None if rhs is None else np.asarray(rhs, dtype=np.float64)
+    if b is not None and (b.ndim not in (1, 2) or b.shape[0] != a.shape[0]):
+        raise SolverError(f"right-hand sides must have {a.shape[0]} rows, got shape {b.shape}")
     if a.shape[0] == 0:
-        return _Empty()
+        return _Empty(b)
     log.debug("factoring %d x %d matrix (%d nonzeros) with %s", *a.shape, a.nnz, backend)
-    if backend == "pardiso" and marked is not None and np.size(marked):
-        return _Pardiso(a, np.asarray(marked, dtype=np.int64))
-    return BACKENDS[backend](a)
+    if backend == "pardiso":
+        m = None if marked is None or not np.size(marked) else np.asarray(marked, dtype=np.int64)
+        return _Pardiso(a, m, b)
+    return BACKENDS[backend](a, b)
 
 
 class _Empty:
@@ -357,6 +385,9 @@ class _Empty:
     n = 0
     backend = "none"
     marked = np.zeros(0, np.int64)
+
+    def __init__(self, rhs: NDArray[np.float64] | None = None) -> None:
+        self.first = None if rhs is None else np.zeros_like(rhs)
 
     def solve(self, b: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.zeros_like(np.asarray(b, dtype=np.float64))

@@ -241,13 +241,24 @@ class StaticSolver:
     # --- the factorisation ------------------------------------------------------------
 
     def factorize(self) -> StaticSolver:
-        """Factor now (with the DOFs marked so far) if not yet done; return self."""
+        """Factor now (with the DOFs marked so far) if not yet done; return self.
+
+        A free body with marked DOFs solves ``J Phi`` (:meth:`_j_phi`, which its partial
+        solves need) with the factorisation's test solve: the factor is read once for
+        both (:func:`fem.linsolve.factorize`'s ``rhs``).
+        """
         if self._factorization is None:
             t = time.perf_counter()
-            self._factorization = factorize(self._to_factor, self.backend, marked=self._marks)
+            rhs = self.modes[self._inner] if self.free_body and self._marks.size else None
+            f = factorize(self._to_factor, self.backend, marked=self._marks, rhs=rhs)
+            self._factorization = f
             self.factor_time += time.perf_counter() - t
             self.n_factorizations += 1
             self._jphi = None
+            if f.first is not None:
+                self._jphi = np.zeros_like(self.modes)
+                self._jphi[self._inner] = f.first
+                self.n_back_solves += self.modes.shape[1]
             self._reset_rows()
         return self
 

@@ -300,3 +300,32 @@ def test_partial_solves_in_chunks_keep_their_work_arrays(body, monkeypatch):
     np.testing.assert_allclose(f.solve_marked(b), inv @ b, rtol=1e-10, atol=1e-14)
     with pytest.raises(fem.SolverError, match=f"expected {marked.size} rows"):
         f.solve_marked(np.ones(marked.size + 1))
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_factorize_solves_right_hand_sides_with_its_test_solve(body, backend):
+    """Right-hand sides handed to the factorisation come back solved (``first``), equal to
+    a later solve; a free body with marks gets its J Phi that way, no separate solve."""
+    mesh, k = body
+    held = fem.node_dofs(np.flatnonzero(mesh.points[:, 0] == 0))
+    free = np.setdiff1d(np.arange(k.shape[0]), held)
+    a = k[free][:, free].tocsr()
+    b = np.random.default_rng(3).standard_normal((a.shape[0], 2))
+    f = fem.factorize(a, backend, rhs=b)
+    np.testing.assert_allclose(f.first, f.solve(b), rtol=1e-12, atol=0)
+    np.testing.assert_allclose(a @ f.first, b, rtol=1e-9, atol=1e-9 * np.abs(b).max())
+    assert fem.factorize(a, backend).first is None
+    assert fem.factorize(a, backend, rhs=b[:, 0]).first.shape == (a.shape[0],)
+    with pytest.raises(fem.SolverError, match=f"must have {a.shape[0]} rows"):
+        fem.factorize(a, backend, rhs=np.ones(3))
+    if backend == "pardiso":
+        x = mesh.points
+        s = fem.StaticSolver(k, points=x, lazy=True, hold_rotation=False)
+        assert s.mark(fem.node_dofs(np.flatnonzero(x[:, 2] == x[:, 2].max())))
+        s.factorize()
+        jphi = s._j_phi()
+        assert s.n_back_solves == 6  # solved with the factorisation
+        inner = s._inner
+        ref = np.linalg.solve(s.factored_matrix.toarray(), s.modes[inner])
+        np.testing.assert_allclose(jphi[inner], ref, rtol=1e-8, atol=1e-12 * np.abs(ref).max())
+        assert not jphi[s._support].any()
