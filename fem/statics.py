@@ -396,21 +396,23 @@ class StaticSolver:
         its compliance with the rows met later.
         """
         self.factorize()
-        ef = sp.csr_matrix(e[:, self.free])
-        ef.sort_indices()
+        ef = self._free_columns(e)
         m = ef.shape[0]
-        keys = [
-            ef.indices[ef.indptr[i] : ef.indptr[i + 1]].tobytes()
-            + ef.data[ef.indptr[i] : ef.indptr[i + 1]].tobytes()
-            for i in range(m)
-        ]
+        # a row's key: its (free) columns and values, as bytes cut from the whole arrays
+        ind = ef.indices.astype(np.int64).tobytes()
+        dat = ef.data.tobytes()
+        ptr = (8 * ef.indptr).tolist()
+        keys = [ind[a:b] + dat[a:b] for a, b in zip(ptr[:-1], ptr[1:], strict=True)]
         new = list(dict.fromkeys(k for k in keys if k not in self._row_index))
         if new:
             if len(self._row_index) + len(new) > ROW_CACHE:
                 self._reset_rows()
                 new = list(dict.fromkeys(keys))
-            first = {k: i for i, k in reversed(list(enumerate(keys)))}
-            rows = ef[[first[k] for k in new]]
+            if len(new) == m:  # every row new and different: all of them, in order
+                rows = ef
+            else:
+                first = {k: i for i, k in reversed(list(enumerate(keys)))}
+                rows = ef[[first[k] for k in new]]
             for j in range(0, rows.shape[0], BLOCK):
                 self._add_rows(rows[j : j + BLOCK])
             for k in new:
@@ -420,6 +422,20 @@ class StaticSolver:
         s = 0.5 * (s + s.T)
         e_phi = (e @ self.placing_modes) if self.free_body else None
         return s, e_phi
+
+    def _free_columns(self, e: sp.csr_matrix) -> sp.csr_matrix:
+        """``e``'s columns of the free DOFs (in order), indices sorted."""
+        if self.free.size == self.n:  # kept: a copy of the caller's
+            return e.sorted_indices() if not e.has_sorted_indices else e.copy()
+        m = e.shape[0]
+        pos = self._pos[e.indices]  # increasing with the DOF: the order is kept
+        keep = pos >= 0
+        row = np.repeat(np.arange(m), np.diff(e.indptr))
+        ptr = np.concatenate([[0], np.cumsum(np.bincount(row[keep], minlength=m))])
+        ef = sp.csr_matrix((e.data[keep], pos[keep], ptr), shape=(m, self.free.size))
+        if not e.has_sorted_indices:
+            ef.sort_indices()
+        return ef
 
     def _on_marks(self, rows: sp.csr_matrix) -> tuple[sp.csr_matrix, NDArray[np.bool_]]:
         """Rows (over the free DOFs) on the marked DOFs' numbering, and which lie on them.
@@ -432,15 +448,16 @@ class StaticSolver:
             return sp.csr_matrix((k, 0)), np.zeros(k, dtype=bool)
         where = np.full(self._to_factor.shape[0], -1, dtype=np.int64)
         where[marks] = np.arange(marks.size)
-        r = rows.tocoo()
-        frow = self._frow[r.col]
+        row = np.repeat(np.arange(k), np.diff(rows.indptr))
+        frow = self._frow[rows.indices]
         sup = frow < 0
         col = where[np.where(sup, 0, frow)]
         off = ~sup & (col < 0)
         inside = np.ones(k, dtype=bool)
-        inside[r.row[off]] = False
+        inside[row[off]] = False
         keep = ~sup & ~off
-        rows_m = sp.csr_matrix((r.data[keep], (r.row[keep], col[keep])), shape=(k, marks.size))
+        ptr = np.concatenate([[0], np.cumsum(np.bincount(row[keep], minlength=k))])
+        rows_m = sp.csr_matrix((rows.data[keep], col[keep], ptr), shape=(k, marks.size))
         return rows_m, inside
 
     def _add_rows(self, rows: sp.csr_matrix) -> None:

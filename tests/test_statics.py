@@ -329,3 +329,32 @@ def test_factorize_solves_right_hand_sides_with_its_test_solve(body, backend):
         ref = np.linalg.solve(s.factored_matrix.toarray(), s.modes[inner])
         np.testing.assert_allclose(jphi[inner], ref, rtol=1e-8, atol=1e-12 * np.abs(ref).max())
         assert not jphi[s._support].any()
+
+
+def test_free_columns_equal_column_slicing(body):
+    """The constraint rows' free columns, taken through the DOF map, equal scipy's slicing
+    (values, order, and unsorted input); a free body's rows come back as a copy."""
+    mesh, k = body
+    held = fem.node_dofs(np.flatnonzero(mesh.points[:, 0] == 0))
+    s = fem.StaticSolver(k, held)
+    rng = np.random.default_rng(7)
+    n = k.shape[0]
+    cols = rng.integers(0, n, size=(40, 6))
+    rows = np.repeat(np.arange(40), 6)
+    e = sp.csr_matrix((rng.standard_normal(240), (rows, cols.ravel())), shape=(40, n))
+    e.indices = e.indices.copy()
+    for r in range(40):  # unsorted within rows
+        a, b = e.indptr[r], e.indptr[r + 1]
+        e.indices[a:b] = e.indices[a:b][::-1]
+        e.data[a:b] = e.data[a:b][::-1]
+    e.has_sorted_indices = False
+    got, want = s._free_columns(e), e[:, s.free].tocsr()
+    want.sort_indices()
+    assert got.has_sorted_indices
+    np.testing.assert_array_equal(got.indptr, want.indptr)
+    np.testing.assert_array_equal(got.indices, want.indices)
+    np.testing.assert_array_equal(got.data, want.data)
+    free = fem.StaticSolver(k, points=mesh.points, lazy=True)
+    e.sort_indices()
+    assert free._free_columns(e) is not e
+    np.testing.assert_array_equal(free._free_columns(e).toarray(), e.toarray())
