@@ -288,6 +288,8 @@ class _Frame:
         self.timings["geometry"] += time.perf_counter() - t
         before = {b.name: b.solver.factor_time for b in self.bodies}
         for b in self.bodies:
+            # the body's own loads (gravity) are solved in the factorisation's sweeps
+            b.solver.anticipate(b.loads[b.solver.free])
             b.solver.factorize()
         self.timings["factorisation"] = sum(
             b.solver.factor_time - before[b.name] for b in self.bodies

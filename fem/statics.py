@@ -22,6 +22,7 @@ import logging
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from itertools import pairwise
 
 import numpy as np
 import scipy.linalg as sla
@@ -234,6 +235,8 @@ class StaticSolver:
         self._factorization: Factorization | None = None
         self._marks = np.zeros(0, np.int64)
         self._jphi: NDArray[np.float64] | None = None
+        # loads to solve with the factorisation, and their answer once solved
+        self._anticipated: tuple[NDArray, NDArray | None] | None = None
         self._reset_rows()
         if not lazy:
             self.factorize()
@@ -249,16 +252,24 @@ class StaticSolver:
         """
         if self._factorization is None:
             t = time.perf_counter()
-            rhs = self.modes[self._inner] if self.free_body and self._marks.size else None
+            cols = [self.modes[self._inner]] if self.free_body and self._marks.size else []
+            known = self._anticipated
+            if known is not None:
+                cols.append(self._to_solve(known[0])[:, None])
+            rhs = np.hstack(cols) if cols else None
             f = factorize(self._to_factor, self.backend, marked=self._marks, rhs=rhs)
             self._factorization = f
             self.factor_time += time.perf_counter() - t
             self.n_factorizations += 1
             self._jphi = None
             if f.first is not None:
-                self._jphi = np.zeros_like(self.modes)
-                self._jphi[self._inner] = f.first
-                self.n_back_solves += self.modes.shape[1]
+                n_modes = len(cols[0].T) if self.free_body and self._marks.size else 0
+                if n_modes:
+                    self._jphi = np.zeros_like(self.modes)
+                    self._jphi[self._inner] = f.first[:, :n_modes]
+                if known is not None:
+                    self._anticipated = (known[0], self._finish(known[0], f.first[:, -1]))
+                self.n_back_solves += f.first.shape[1]
             self._reset_rows()
         return self
 
@@ -345,18 +356,48 @@ class StaticSolver:
         ``r`` has shape ``(n_free,)`` or ``(n_free, k)``.
         """
         r = np.asarray(r, dtype=np.float64)
+        fact = self._fact  # factored now if not yet: anticipated loads solved with it
+        known = self._anticipated
+        if known is not None and known[1] is not None and np.array_equal(r, known[0]):
+            return known[1].copy()
+        return self._finish(r, fact.solve(self._to_solve(r)))
+
+    def _to_solve(self, r: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The right-hand side of the factored matrix that :meth:`apply_inverse` solves."""
         if not self.free_body:
-            return self._fact.solve(r)
-        phi = self.modes
-        a = phi.T @ r
-        x = np.zeros_like(r)
-        if self._fact.marked.size:
+            return r
+        if self._marks.size:
             # J P r = J r - (J Phi) a: r itself stays nonzero on the contact zone only
             # (marked: a short forward sweep), J Phi is kept for the partial solves
-            x[self._inner] = self._fact.solve(r[self._inner]) - self._j_phi()[self._inner] @ a
-        else:
-            x[self._inner] = self._fact.solve((r - phi @ a)[self._inner])
+            return r[self._inner]
+        return (r - self.modes @ (self.modes.T @ r))[self._inner]
+
+    def _finish(self, r: NDArray[np.float64], z: NDArray[np.float64]) -> NDArray[np.float64]:
+        """:meth:`apply_inverse` of ``r`` from the solution ``z`` of :meth:`_to_solve`."""
+        if not self.free_body:
+            return z
+        phi = self.modes
+        x = np.zeros_like(r)
+        x[self._inner] = z
+        if self._marks.size:
+            x[self._inner] -= self._j_phi()[self._inner] @ (phi.T @ r)
         return x - phi @ (phi.T @ x)
+
+    def anticipate(self, r: ArrayLike) -> None:
+        """Solve ``r`` (over the free DOFs) with the coming factorisation.
+
+        The factor is then read once for its test solve, ``J Phi`` and ``r`` (a body's
+        own loads, whose answer every contact frame asks for first); :meth:`apply_inverse`
+        of the same vector reads it back. Nothing is done once factored, or for a zero
+        ``r``.
+        """
+        v = np.array(r, dtype=np.float64)
+        if v.shape != (self.free.size,):
+            raise SolverError(
+                f"anticipated loads must have shape ({self.free.size},), got {v.shape}"
+            )
+        if self._factorization is None and v.any():
+            self._anticipated = (v, None)
 
     # --- constraints -----------------------------------------------------------------
 
@@ -402,7 +443,7 @@ class StaticSolver:
         ind = ef.indices.astype(np.int64).tobytes()
         dat = ef.data.tobytes()
         ptr = (8 * ef.indptr).tolist()
-        keys = [ind[a:b] + dat[a:b] for a, b in zip(ptr[:-1], ptr[1:], strict=True)]
+        keys = [ind[a:b] + dat[a:b] for a, b in pairwise(ptr)]
         new = list(dict.fromkeys(k for k in keys if k not in self._row_index))
         if new:
             if len(self._row_index) + len(new) > ROW_CACHE:
