@@ -67,9 +67,13 @@ DEGENERATE_TOL = 1e-12
 
 #: Topology of recent surfaces by their connectivity: closed or not, edge neighbours, the
 #: corners around each node. A posed hand's skin is a new surface every frame, on the same
-#: triangles; what depends on the triangles alone is worked out once.
+#: triangles; what depends on the triangles alone is worked out once. The posing makes a
+#: surface of every bone each frame too: the record keeps up to ``_TOPOLOGY_KEPT`` surfaces
+#: and ``_TOPOLOGY_TRIANGLES`` triangles in all (about 80 bytes each), the least recently
+#: used dropped first (at 8 surfaces, the hand's and ball's were dropped every frame).
 _TOPOLOGY: OrderedDict[tuple[int, bytes], dict[str, Any]] = OrderedDict()
-_TOPOLOGY_KEPT = 8
+_TOPOLOGY_KEPT = 256
+_TOPOLOGY_TRIANGLES = 500_000
 
 
 def _topology(n_points: int, triangles: NDArray[np.int64]) -> dict[str, Any]:
@@ -78,9 +82,11 @@ def _topology(n_points: int, triangles: NDArray[np.int64]) -> dict[str, Any]:
     entry = _TOPOLOGY.pop(key, None)
     if entry is None:
         entry = {}
-        while len(_TOPOLOGY) >= _TOPOLOGY_KEPT:
-            _TOPOLOGY.popitem(last=False)
     _TOPOLOGY[key] = entry
+    held = sum(len(k[1]) for k in _TOPOLOGY) // 24  # triangles (3 int64 each)
+    while len(_TOPOLOGY) > 1 and (len(_TOPOLOGY) > _TOPOLOGY_KEPT or held > _TOPOLOGY_TRIANGLES):
+        old, _ = _TOPOLOGY.popitem(last=False)
+        held -= len(old[1]) // 24
     return entry
 
 

@@ -300,3 +300,29 @@ def test_vertex_normals_of_some_nodes_equal_the_whole_surface():
     assert np.linalg.norm(got - pts[nodes] / np.linalg.norm(pts[nodes], axis=1)[:, None]) < 0.1
     moved = s.moved(pts * 2.0)
     np.testing.assert_allclose(moved.vertex_normals_at(nodes), got, atol=1e-14)
+
+
+def test_topology_of_a_surface_outlives_many_small_ones(monkeypatch):
+    """The topology record keeps a big surface while a posing makes a surface of every bone
+    (tens of small ones), and drops the least recently used past its triangle budget."""
+    import contact.surfacequery as sq
+
+    monkeypatch.setattr(sq, "_TOPOLOGY", type(sq._TOPOLOGY)())
+    big = fem.box_mesh((1.0, 1.0, 1.0), (6, 6, 6), element="tetra")
+    pts, tri = big.points, surface_of_mesh(big)[1]
+    first = TriangleSurface(pts, tri, name="skin")
+    assert first.is_closed
+    _ = first._twins
+    for k in range(40):  # a posing's bones: small surfaces, all different
+        box = fem.box_mesh((1.0, 1.0, 1.0), (1, 1, 1 + k), element="tetra")
+        TriangleSurface(box.points, surface_of_mesh(box)[1], name=f"bone {k}")
+    again = TriangleSurface(pts + 0.1, tri, name="skin moved")
+    assert again._topology is first._topology
+    assert {"closed", "twins"} <= set(again._topology)
+    monkeypatch.setattr(sq, "_TOPOLOGY_TRIANGLES", len(tri) + 20)
+    box = fem.box_mesh((1.0, 2.0, 1.0), (3, 3, 3), element="tetra")
+    other = surface_of_mesh(box)[1]
+    assert 20 < len(other) < len(tri)
+    TriangleSurface(box.points, other, name="another")  # skin + another: over the budget
+    assert len(sq._TOPOLOGY) == 1  # the least recently used dropped, the skin too
+    assert TriangleSurface(pts, tri, name="skin")._topology is not first._topology
