@@ -272,6 +272,7 @@ class _ClosedSolver:
     def __init__(self, w: NDArray, g: NDArray, rhs: NDArray, c: NDArray, load_scale: float) -> None:
         self.w, self.g, self.rhs, self.c, self.load_scale = w, g, rhs, c, load_scale
         self.base = np.zeros(0, dtype=np.int64)
+        self._in_base = np.zeros(rhs.size, dtype=bool)
         self.factor: tuple | None = None
         self.cols: dict[int, NDArray] = {}  # W_BB^-1 of each border column, by row
         self.exact = True
@@ -282,6 +283,8 @@ class _ClosedSolver:
         if self.factor is None:
             return False
         self.base = idx
+        self._in_base[:] = False
+        self._in_base[idx] = True
         self.cols = {}
         return True
 
@@ -298,8 +301,10 @@ class _ClosedSolver:
         return op
 
     def _operator(self, idx: NDArray[np.int64]) -> Callable[[NDArray], NDArray] | None:
-        added = np.setdiff1d(idx, self.base, assume_unique=True)
-        removed = np.setdiff1d(self.base, idx, assume_unique=True)
+        closed = np.zeros(self._in_base.size, dtype=bool)
+        closed[idx] = True
+        added = idx[~self._in_base[idx]]  # sorted, as idx and the base are
+        removed = self.base[~closed[self.base]]
         if self.factor is not None and added.size + removed.size <= max(16, REFACTOR * idx.size):
             try:
                 return self._inverse(idx, added, removed)
@@ -367,7 +372,9 @@ class _ClosedSolver:
         own = np.diag(t)[:na]  # each added row's compliance left once the base holds
         if (own <= 1e-10 * np.diag(z)[:na]).any():  # a row added that repeats the base's
             raise np.linalg.LinAlgError("an added row depends on the base rows")
-        kept = np.isin(base, idx)
+        closed = np.zeros(self._in_base.size, dtype=bool)
+        closed[idx] = True
+        kept = closed[base]
         in_base = np.searchsorted(idx, base[kept])
         pos_base = np.flatnonzero(kept)
         pos_added = np.searchsorted(idx, added)

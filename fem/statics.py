@@ -763,6 +763,8 @@ def held_modes(g: NDArray, c: NDArray, load_scale: float = 0.0) -> NDArray:
     sv, vt = (np.linalg.svd(g, full_matrices=False)[1:]) if m else (np.zeros(0), None)
     held = sv > RANK_TOL * sv.max() if sv.size and sv.max() > 0 else np.zeros(0, bool)
     v1 = vt[held].T if held.any() else np.zeros((r, 0))
+    if v1.shape[1] == r:  # every mode held: nothing to check
+        return v1
     v0 = np.linalg.svd(v1.T)[2][v1.shape[1] :].T if v1.shape[1] else np.eye(r)
     scale = max(float(np.abs(c).max(initial=0.0)), load_scale, 1e-300)
     if v0.shape[1] and np.abs(v0.T @ c).max() > 1e-8 * scale:
@@ -780,12 +782,10 @@ def solve_saddle_with(
 
     ``w_inv`` takes an ``(m,)`` or ``(m, k)`` array; ``v1`` is :func:`held_modes`'s.
     """
-    lam = w_inv(rhs)
-    a = np.zeros(g.shape[1])
-    if v1.shape[1]:
-        g1, c1 = g @ v1, v1.T @ c
-        wg = w_inv(g1)
-        b = np.linalg.solve(g1.T @ wg, g1.T @ lam - c1)
-        lam = lam - wg @ b
-        a = v1 @ b
-    return lam, a
+    if not v1.shape[1]:
+        return w_inv(rhs), np.zeros(g.shape[1])
+    g1, c1 = g @ v1, v1.T @ c
+    both = w_inv(np.column_stack([rhs, g1]))  # one solve for both
+    lam, wg = both[:, 0], both[:, 1:]
+    b = np.linalg.solve(g1.T @ wg, g1.T @ lam - c1)
+    return lam - wg @ b, v1 @ b
