@@ -247,12 +247,14 @@ class StaticSolver:
         """Factor now (with the DOFs marked so far) if not yet done; return self.
 
         A free body with marked DOFs solves ``J Phi`` (:meth:`_j_phi`, which its partial
-        solves need) with the factorisation's test solve: the factor is read once for
-        both (:func:`fem.linsolve.factorize`'s ``rhs``).
+        solves need), and any body the loads it was told of (:meth:`anticipate`), with
+        the factorisation's test solve: the factor is read once for all
+        (:func:`fem.linsolve.factorize`'s ``rhs``).
         """
         if self._factorization is None:
             t = time.perf_counter()
-            cols = [self.modes[self._inner]] if self.free_body and self._marks.size else []
+            n_modes = self.modes.shape[1] if self.free_body and self._marks.size else 0
+            cols = [self.modes[self._inner]] if n_modes else []
             known = self._anticipated
             if known is not None:
                 cols.append(self._to_solve(known[0])[:, None])
@@ -263,7 +265,6 @@ class StaticSolver:
             self.n_factorizations += 1
             self._jphi = None
             if f.first is not None:
-                n_modes = len(cols[0].T) if self.free_body and self._marks.size else 0
                 if n_modes:
                     self._jphi = np.zeros_like(self.modes)
                     self._jphi[self._inner] = f.first[:, :n_modes]
@@ -466,7 +467,7 @@ class StaticSolver:
 
     def _free_columns(self, e: sp.csr_matrix) -> sp.csr_matrix:
         """``e``'s columns of the free DOFs (in order), indices sorted."""
-        if self.free.size == self.n:  # kept: a copy of the caller's
+        if self.free.size == self.n:  # a copy: the rows kept share no array with e
             return e.sorted_indices() if not e.has_sorted_indices else e.copy()
         m = e.shape[0]
         pos = self._pos[e.indices]  # increasing with the DOF: the order is kept
