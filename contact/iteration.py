@@ -304,8 +304,8 @@ class _Frame:
         the first solve's patch, and the updates it takes, the same on every mesh.
         Against a rigid master (a plane) only the slave gives way, away from it: the
         nodes a press closes are inside it already, and the band is ``near`` alone (the
-        hand cup's first set 287 -> 235 rows, the same forces and updates on every
-        stiffness ratio and depth of the frame study).
+        hand cup's first set 287 -> 235 rows; the same forces and updates on the cup at
+        four stiffness ratios and two depths, and on every row of the iteration study).
         """
         local = self.local[pair.slave.name][p.nodes]
         if pair.rigid:
