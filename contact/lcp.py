@@ -303,17 +303,18 @@ class _ClosedSolver:
     def _operator(self, idx: NDArray[np.int64]) -> Callable[[NDArray], NDArray] | None:
         closed = np.zeros(self._in_base.size, dtype=bool)
         closed[idx] = True
+        kept = closed[self.base]
         added = idx[~self._in_base[idx]]  # sorted, as idx and the base are
-        removed = self.base[~closed[self.base]]
+        removed = self.base[~kept]
         if self.factor is not None and added.size + removed.size <= max(16, REFACTOR * idx.size):
             try:
-                return self._inverse(idx, added, removed)
+                return self._inverse(idx, added, removed, kept)
             except np.linalg.LinAlgError:
                 pass  # a row added that repeats the base's: factored anew below
         if not self._refactor(idx):
             return None
         none = np.zeros(0, dtype=np.int64)
-        return self._inverse(idx, none, none)
+        return self._inverse(idx, none, none, np.ones(idx.size, dtype=bool))
 
     def __call__(self, idx: NDArray[np.int64]) -> tuple[NDArray, NDArray]:
         """Forces and rigid-mode amplitudes with the rows ``idx`` closed.
@@ -355,9 +356,12 @@ class _ClosedSolver:
         return np.column_stack([self.cols[k] for k in keys])
 
     def _inverse(
-        self, idx: NDArray, added: NDArray, removed: NDArray
+        self, idx: NDArray, added: NDArray, removed: NDArray, kept: NDArray[np.bool_]
     ) -> Callable[[NDArray], NDArray]:
-        """``v -> W_CC^-1 v`` for the closed rows ``idx`` (sorted)."""
+        """``v -> W_CC^-1 v`` for the closed rows ``idx`` (sorted).
+
+        ``kept`` tells which rows of the base are among them.
+        """
         factor, base, w = self.factor, self.base, self.w
         if not added.size and not removed.size:
             return lambda v: sla.cho_solve(factor, v)
@@ -372,9 +376,6 @@ class _ClosedSolver:
         own = np.diag(t)[:na]  # each added row's compliance left once the base holds
         if (own <= 1e-10 * np.diag(z)[:na]).any():  # a row added that repeats the base's
             raise np.linalg.LinAlgError("an added row depends on the base rows")
-        closed = np.zeros(self._in_base.size, dtype=bool)
-        closed[idx] = True
-        kept = closed[base]
         in_base = np.searchsorted(idx, base[kept])
         pos_base = np.flatnonzero(kept)
         pos_added = np.searchsorted(idx, added)

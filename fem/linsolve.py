@@ -86,6 +86,8 @@ class _Pardiso:
         iparm[17] = -1  # report the factor's nonzeros
         iparm[18] = -1  # and its Gflop
         self.marked = np.zeros(0, np.int64) if marked is None else np.unique(marked)
+        # full-length arrays of the partial solves, kept between calls (_partial_work)
+        self._work: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
         self._mask = np.zeros(self.n, dtype=np.int32)
         if self.marked.size:
             self._mask[self.marked] = 1
@@ -214,7 +216,7 @@ class _Pardiso:
 
     def _partial_work(self, k: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Kept right-hand side (zero off the marks) and solution arrays, ``(n, >= k)``."""
-        work = getattr(self, "_work", None)
+        work = self._work
         if work is None or work[0].shape[1] < k:
             work = (np.zeros((self.n, k), order="F"), np.zeros((self.n, k), order="F"))
             self._work = work

@@ -469,12 +469,8 @@ class StaticSolver:
         """``e``'s columns of the free DOFs (in order), indices sorted."""
         if self.free.size == self.n:  # a copy: the rows kept share no array with e
             return e.sorted_indices() if not e.has_sorted_indices else e.copy()
-        m = e.shape[0]
         pos = self._pos[e.indices]  # increasing with the DOF: the order is kept
-        keep = pos >= 0
-        row = np.repeat(np.arange(m), np.diff(e.indptr))
-        ptr = np.concatenate([[0], np.cumsum(np.bincount(row[keep], minlength=m))])
-        ef = sp.csr_matrix((e.data[keep], pos[keep], ptr), shape=(m, self.free.size))
+        ef = _csr_entries(e, pos >= 0, pos, self.free.size)
         if not e.has_sorted_indices:
             ef.sort_indices()
         return ef
@@ -497,10 +493,7 @@ class StaticSolver:
         off = ~sup & (col < 0)
         inside = np.ones(k, dtype=bool)
         inside[row[off]] = False
-        keep = ~sup & ~off
-        ptr = np.concatenate([[0], np.cumsum(np.bincount(row[keep], minlength=k))])
-        rows_m = sp.csr_matrix((rows.data[keep], col[keep], ptr), shape=(k, marks.size))
-        return rows_m, inside
+        return _csr_entries(rows, ~sup & ~off, col, marks.size), inside
 
     def _add_rows(self, rows: sp.csr_matrix) -> None:
         """Keep new rows and their compliance with every kept row (and each other)."""
@@ -669,6 +662,16 @@ class StaticSolver:
                 f"prescribed values must have shape ({npres},) or ({self.n},), got {v.shape}"
             )
         return v
+
+
+def _csr_entries(
+    e: sp.csr_matrix, keep: NDArray[np.bool_], col: NDArray[np.int64], n_cols: int
+) -> sp.csr_matrix:
+    """The entries ``keep`` of ``e``, in their rows, moved to columns ``col`` (of ``n_cols``)."""
+    m = e.shape[0]
+    row = np.repeat(np.arange(m), np.diff(e.indptr))
+    ptr = np.concatenate([[0], np.cumsum(np.bincount(row[keep], minlength=m))])
+    return sp.csr_matrix((e.data[keep], col[keep], ptr), shape=(m, n_cols))
 
 
 def _spd_solve(s: NDArray, rhs: NDArray) -> NDArray:
