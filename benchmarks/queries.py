@@ -5,9 +5,12 @@ the other's closed skin and where their closest points on it are. The skin moves
 iteration, so building the search structure counts as much as querying it: both are timed
 apart. Candidates (each skipped when its package is not installed):
 
-* ``contact.surfacequery`` -- what the contact code uses: libigl's AABB tree for the
-  closest facet, exact barycentric weights and pseudo-normals in numpy, libigl's fast
-  winding number for inside (``pseudonormal``: the sign of the closest point's normal);
+* ``contact.surfacequery`` -- what the contact code uses: its own bounding-volume
+  hierarchy compiled with numba (:mod:`contact.closestkernels`) for the closest facet and
+  the exact barycentric weights, pseudo-normals in numpy, libigl's fast winding number for
+  inside (``pseudonormal``: the sign of the closest point's normal). Its build is timed
+  twice: for a new connectivity (the hierarchy's shape and its boxes), and for the same
+  skin at new coordinates (``moved``: the boxes refitted, what an iteration pays);
 * ``libigl`` -- ``igl.AABB.squared_distance`` alone, ``igl.FastWindingNumberBVH`` and
   ``igl.signed_distance`` (pseudo-normal sign; builds its tree inside the call);
 * ``fcpw`` -- ``scene_3D.find_closest_points`` and ``contains`` (float32);
@@ -187,7 +190,21 @@ class Candidate:
 
 def _ours_build(v: np.ndarray, f: np.ndarray) -> TriangleSurface:
     s = TriangleSurface(v, f, name="skin")
-    s._aabb  # noqa: B018  (build now, to time it)
+    s._topology.pop("tree", None)  # a new connectivity: the hierarchy built, not recalled
+    s._boxes  # noqa: B018  (build now, to time it)
+    return s
+
+
+_REFIT: dict[bytes, TriangleSurface] = {}
+
+
+def _ours_refit(v: np.ndarray, f: np.ndarray) -> TriangleSurface:
+    key = f.tobytes()
+    if key not in _REFIT:
+        _REFIT[key] = TriangleSurface(v, f, name="skin")
+        _REFIT[key]._tree  # noqa: B018
+    s = _REFIT[key].moved(v)  # the skin at new coordinates: the boxes refitted only
+    s._boxes  # noqa: B018
     return s
 
 
@@ -367,7 +384,11 @@ def _vtk_inside(method: str) -> Callable:
 
 CANDIDATES: tuple[Candidate, ...] = (
     Candidate(
-        "contact.surfacequery", "closest", "igl", "libigl", "float64", _ours_build, _ours_closest
+        "contact.surfacequery", "closest", "numba", "numba", "float64", _ours_build, _ours_closest
+    ),
+    Candidate(
+        "contact.surfacequery, moved (refit)", "closest", "numba", "numba", "float64",
+        _ours_refit, _ours_closest,
     ),
     Candidate(
         "libigl AABB", "closest", "igl", "libigl", "float64", _igl_aabb_build, _igl_aabb_query
@@ -387,7 +408,7 @@ CANDIDATES: tuple[Candidate, ...] = (
         _ours_wn_build, lambda s, v, f, x: s.inside(x),
     ),
     Candidate(
-        "contact.surfacequery (pseudonormal)", "inside", "igl", "libigl", "float64",
+        "contact.surfacequery (pseudonormal)", "inside", "numba", "numba", "float64",
         _ours_build, _ours_pn,
     ),
     Candidate(
@@ -438,14 +459,20 @@ parity, re-cast past every hit |
 | vtk 9.7.2 (here already, through pyvista) | BSD-3 | - | - | float64 | one Python call \
 per point | implicit distance (pseudo-normal), ray casting |
 
-Chosen: libigl. It is the only candidate with float64 closest points and a vectorised
-facet index *and* a robust inside test (winding number) in one small wheel with a
-permissive licence; its build is cheap enough to redo every iteration. float32 (fcpw,
-Open3D, embreex) puts the closest point ~1e-6 m off on a 0.25 m hand, which is the size
-of the gaps the contact iteration resolves; Open3D's faster rays come with a 400 MB
-install and a system library. `contact.surfacequery` recomputes the point on libigl's
-facet exactly (weights and distance to rounding; libigl's own distance, the square root
-of a squared distance, is only good to ~1e-12 relative near the surface).
+Chosen first: libigl. It is the only candidate with float64 closest points and a
+vectorised facet index *and* a robust inside test (winding number) in one small wheel
+with a permissive licence. float32 (fcpw, Open3D, embreex) puts the closest point ~1e-6 m
+off on a 0.25 m hand, which is the size of the gaps the contact iteration resolves;
+Open3D's faster rays come with a 400 MB install and a system library.
+
+Since then the closest facet is searched by `contact.closestkernels` (numba, a dependency
+already): the contact iteration asks a few hundred points at a time at new coordinates,
+and libigl's tree had to be built again for each set (3 ms on the coarse skin, more than
+the search). The hierarchy's shape is kept per connectivity and only its boxes are
+refitted (the `moved (refit)` rows). libigl stays for the winding number.
+`contact.surfacequery` computes the point on the facet exactly (weights and distance to
+rounding; libigl's own distance, the square root of a squared distance, is only good to
+~1e-12 relative near the surface).
 """
 
 

@@ -40,7 +40,6 @@ from .body import ElasticBody
 from .geometry import Plane
 from .surfacequery import (
     DEGENERATE_TOL,
-    Closest,
     SurfaceError,
     TriangleSurface,
     degenerate_triangles,
@@ -193,9 +192,9 @@ def measure(
 
     Only slave nodes within ``margin`` of the master's bounding box are examined. Against
     a closed master surface, the nodes a ``survey`` of an earlier measurement shows to be
-    further than ``margin`` are skipped, and the others are searched on the patch of the
-    master near them (a node the patch cannot answer for is searched on the whole
-    surface): the result is that of a search of every node on the whole surface.
+    further than ``margin`` are skipped: the result is that of a search of every node.
+    The others are searched on the master's whole surface (its bounding-volume
+    hierarchy, refitted at the new coordinates: :mod:`contact.closestkernels`).
 
     Returns
     -------
@@ -247,7 +246,7 @@ def measure(
     if not keep.all():
         tri = tri[keep]
         surface = TriangleSurface(xm, tri, name=f"{master.name} contact surface")
-    c = _closest_near(surface, q, 2.0 * margin)
+    c = surface.closest(q)
     # inside: the side of the closest point's pseudo-normal (Baerentzen and Aanaes: exact
     # on a closed surface that does not overlap itself; on an open one, a pad's top, the
     # side it faces)
@@ -269,39 +268,6 @@ def _survey(
     clear: NDArray[np.float64],
 ) -> Survey:
     return Survey(np.array(u[pair.slave.name][nodes]), np.array(u[pair.master.name][used]), clear)
-
-
-def _closest_near(surface: TriangleSurface, q: NDArray[np.float64], reach: float) -> Closest:
-    """Closest points of ``q`` on ``surface``, searched on the patch near them.
-
-    The patch holds every triangle that meets the box of the points grown by ``reach``:
-    it holds the closest point of every point nearer the surface than ``reach``. A point
-    whose closest point on the patch is further than that is searched again on the whole
-    surface.
-    """
-    lo, hi = fem.bounding_box(q)
-    lo, hi = lo - reach, hi + reach
-    x = surface.points
-    tri = surface.triangles
-    # per node: below (-1), within (0) or above (+1) the box, along each axis; a triangle
-    # misses the box where its three nodes lie on the same side along one axis
-    side = (x > hi).astype(np.int8) - (x < lo).astype(np.int8)
-    s = side[tri]  # (m, 3, 3): triangle, corner, axis
-    same = (s[:, 0] == s[:, 1]) & (s[:, 1] == s[:, 2]) & (s[:, 0] != 0)
-    patch = np.flatnonzero(~same.any(axis=1))
-    if patch.size == 0 or patch.size > 0.5 * len(tri):
-        return surface.closest(q)
-    c = surface.closest(q, faces=patch)
-    far = np.flatnonzero(c.distance > reach)
-    if far.size == 0:
-        return c
-    again = surface.closest(q[far])
-    fields = {}
-    for name in ("distance", "point", "face", "bary", "normal", "feature"):
-        a = getattr(c, name).copy()
-        a[far] = getattr(again, name)
-        fields[name] = a
-    return Closest(**fields)
 
 
 def _pad(a: NDArray, width: int, fill: float) -> NDArray:

@@ -45,6 +45,7 @@ from numpy.typing import ArrayLike, NDArray
 
 import fem
 
+from . import closestkernels as kernels
 from .errors import ContactError
 
 __all__ = [
@@ -434,11 +435,30 @@ class TriangleSurface:
 
     # --- search structures ---------------------------------------------------------
 
-    @cached_property
-    def _aabb(self) -> Any:
-        tree = _igl().AABB()
-        tree.init(self.points, self.triangles)
+    @property
+    def _tree(self) -> tuple[NDArray[np.int64], ...]:
+        """The hierarchy's shape (:func:`contact.closestkernels.build_tree`), per connectivity.
+
+        Built at the coordinates of the first surface of its connectivity; later ones (a
+        deformed or posed copy) refit its boxes only.
+        """
+        tree = self._topology.get("tree")
+        if tree is None:
+            tree = kernels.build_tree(self.points, self.triangles, kernels.LEAF)
+            self._topology["tree"] = tree
         return tree
+
+    @cached_property
+    def _boxes(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The hierarchy's boxes at this surface's coordinates."""
+        return kernels.refit(self.points, self.triangles, *self._tree)
+
+    def _search(self, q: NDArray[np.float64]) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+        """Closest facet of each point ``(k, 3)`` and the weights of its closest point."""
+        face, w, _ = kernels.closest_faces(
+            self.points, self.triangles, *self._tree, *self._boxes, q
+        )
+        return face, w
 
     @cached_property
     def _winding(self) -> Any:
@@ -548,8 +568,7 @@ class TriangleSurface:
             e = np.zeros((0, 3))
             return Closest(np.zeros(0), e, np.zeros(0, np.int64), e, e, np.zeros(0, np.int8))
         if faces is None:
-            _, face, _ = self._aabb.squared_distance(self.points, self.triangles, q)
-            face = np.asarray(face, dtype=np.int64)
+            face, w = self._search(q)
         else:
             sub = np.asarray(faces, dtype=np.int64)
             if sub.ndim != 1 or sub.size == 0 or sub.min() < 0 or sub.max() >= self.n_faces:
@@ -557,12 +576,12 @@ class TriangleSurface:
                     f"{self.name}: faces must list triangles 0..{self.n_faces - 1}, at least one"
                 )
             tri = np.ascontiguousarray(self.triangles[sub])
-            tree = _igl().AABB()
-            tree.init(self.points, tri)
-            _, face, _ = tree.squared_distance(self.points, tri, q)
-            face = sub[np.asarray(face, dtype=np.int64)]
+            tree = kernels.build_tree(self.points, tri, kernels.LEAF)
+            face, w, _ = kernels.closest_faces(
+                self.points, tri, *tree, *kernels.refit(self.points, tri, *tree), q
+            )
+            face = sub[face]
         corners = self.points[self.triangles[face]]
-        w = closest_on_triangles(q, corners[:, 0], corners[:, 1], corners[:, 2])
         point = np.einsum("ki,kij->kj", w, corners)
         distance = np.linalg.norm(q - point, axis=1)
         zero = w == 0.0

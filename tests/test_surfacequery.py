@@ -326,3 +326,75 @@ def test_topology_of_a_surface_outlives_many_small_ones(monkeypatch):
     TriangleSurface(box.points, other, name="another")  # skin + another: over the budget
     assert len(sq._TOPOLOGY) == 1  # the least recently used dropped, the skin too
     assert TriangleSurface(pts, tri, name="skin")._topology is not first._topology
+
+
+# --- the compiled hierarchy ---------------------------------------------------------------
+
+
+def test_hierarchy_holds_every_facet_once_in_small_leaves():
+    from contact.closestkernels import LEAF, build_tree
+
+    s = _sphere(3)
+    order, child, start, count = build_tree(s.points, s.triangles, LEAF)
+    assert np.array_equal(np.sort(order), np.arange(s.n_faces))
+    inner = np.flatnonzero(child >= 0)
+    assert (child[inner] > inner).all()  # children after their parent: refit leaves up
+    # the two children split their parent's run of facets
+    assert np.array_equal(start[child[inner]], start[inner])
+    assert np.array_equal(count[child[inner]] + count[child[inner] + 1], count[inner])
+    leaves = child < 0
+    assert count[leaves].max() <= LEAF and count[leaves].sum() == s.n_faces
+    assert len(child) < 2 * s.n_faces / LEAF * 2
+
+
+def test_closest_on_a_deformed_copy_matches_brute_force():
+    """The hierarchy is built at the first coordinates of a connectivity; a twisted and
+    squashed copy (:meth:`TriangleSurface.moved`) refits its boxes and still finds the
+    closest point of every query, near or far."""
+    s = _sphere(2)
+    p = s.points
+    turn = 2.0 * p[:, 2]
+    bent = np.column_stack(
+        [
+            p[:, 0] * np.cos(turn) - p[:, 1] * np.sin(turn),
+            p[:, 0] * np.sin(turn) + p[:, 1] * np.cos(turn),
+            0.3 * p[:, 2] + 0.2 * p[:, 0] ** 2,
+        ]
+    )
+    m = s.moved(bent)
+    assert m._tree is s._tree
+    rng = np.random.default_rng(11)
+    x = rng.normal(size=(600, 3)) * rng.uniform(0.02, 2.0, (600, 1))
+    c = m.closest(x)
+    d, q = _brute_force(m, x)
+    assert np.abs(c.distance - d).max() <= 1e-12
+    assert np.abs(c.point - q).max() <= 1e-9  # the point is unique off the medial axis
+    # a patch searches its own hierarchy
+    patch = np.arange(0, m.n_faces, 3)
+    sub = TriangleSurface(m.points, m.triangles[patch], name="patch")
+    cp = m.closest(x, faces=patch)
+    assert np.abs(cp.distance - _brute_force(sub, x)[0]).max() <= 1e-12
+    assert np.isin(cp.face, patch).all()
+
+
+def test_ties_at_edges_and_corners_do_not_depend_on_the_facet_order():
+    """A point whose closest point is a cube's corner or edge lies at the same distance
+    from every facet there: whatever the facets' order, it gets the corner's (edge's)
+    exact weights, feature and pseudo-normal; a point equidistant from facets of
+    different planes (the centre) gets the lowest-numbered one."""
+    x = np.array([[1.5, 1.5, 1.5], [1.3, 0.5, 1.2], [-0.2, 0.25, -0.4], [0.5, 0.5, 0.5]])
+    rng = np.random.default_rng(3)
+    answers = []
+    for trial in range(6):
+        perm = rng.permutation(12) if trial else np.arange(12)
+        roll = rng.integers(3, size=12) if trial else np.zeros(12, int)
+        tri = np.array([np.roll(t, r) for t, r in zip(CUBE_TRIANGLES[perm], roll)])
+        s = TriangleSurface(CUBE_POINTS, tri, name="cube")
+        c = s.closest(x)
+        answers.append((c.point[:3], c.feature[:3], c.normal[:3]))
+        assert c.face[3] == 0  # the centre: every facet at 0.5
+    for point, feature, normal in answers:
+        np.testing.assert_array_equal(feature, [1, 2, 2])
+        np.testing.assert_allclose(point, [[1, 1, 1], [1, 0.5, 1], [0, 0.25, 0]], atol=1e-15)
+        np.testing.assert_allclose(normal, answers[0][2], atol=1e-15)
+    np.testing.assert_allclose(answers[0][2][0], np.full(3, 1 / np.sqrt(3)), atol=1e-15)
