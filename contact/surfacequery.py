@@ -4,29 +4,35 @@ The geometric queries of the contact iteration ("repel", issue 6): a slave node 
 master's closed surface is moved to its closest point on it, remembering the facet and the
 barycentric weights of that point.
 
-:class:`TriangleSurface` wraps the queries. The searches run in `libigl
-<https://libigl.github.io>`_ (MPL-2.0; ``pip install libigl``, wheels of a few MB for
-every platform), chosen after measuring libigl, fcpw, Open3D, embreex and VTK
-(``python -m benchmarks queries``; see ``benchmarks/results/queries.md``):
+:class:`TriangleSurface` wraps the queries, in double precision throughout. libigl
+(`<https://libigl.github.io>`_, MPL-2.0; ``pip install libigl``, wheels of a few MB for
+every platform) was chosen after measuring libigl, fcpw, Open3D, embreex and VTK
+(``python -m benchmarks queries``; see ``benchmarks/results/queries.md``); the closest
+facet is now searched by a compiled hierarchy of our own:
 
-* closest point: libigl's AABB tree (``igl.AABB``) finds the closest facet in double
-  precision; the point on that facet and its barycentric weights are then recomputed here
-  exactly (Ericson's region test), so that ``point == w @ facet_points`` to rounding and a
-  point on an edge or a vertex has exactly zero weights for the other nodes;
+* closest point: a bounding-volume hierarchy compiled with numba
+  (:mod:`contact.closestkernels`) finds the closest facet and the barycentric weights of
+  its closest point (Ericson's region test), so that ``point == w @ facet_points`` to
+  rounding and a point on an edge or a vertex has exactly zero weights for the other
+  nodes. Its shape is built once per connectivity; a surface at new coordinates
+  (:meth:`TriangleSurface.moved`, every iteration of a contact frame) refits its boxes
+  only (libigl's AABB tree had to be built again for each: about 3 ms on the coarse skin,
+  more than a search of a few hundred points);
 * inside: the generalised winding number (``igl.FastWindingNumberBVH``, Barnes-Hut with
   exact near-field sums), ``> 1/2`` inside. It stays right in concave regions, for points
   a hair from the surface, and where a deformed surface overlaps itself;
 * normal: the facet normal inside a facet, the angle-weighted pseudo-normal (Baerentzen and
   Aanaes 2005) at an edge or a vertex, so that ``(x - point) . normal < 0`` exactly when
-  ``x`` is inside a closed, manifold surface that does not overlap itself.
+  ``x`` is inside a closed, manifold surface that does not overlap itself. Of facets tied
+  at an edge or a vertex, the search takes one whose weights are exactly zero off it.
 
-Both acceleration structures are built lazily on the first query and rebuilt for every new
-set of coordinates (:meth:`TriangleSurface.moved`); building costs about as much as
-querying 2,000 points (a few ms for the coarse skin's 2.7k facets, 30-80 ms for the fine
-one's 18k). ``closest(x, faces=patch)`` searches a patch only, on a tree of its own, with
-the whole surface's normals. What depends on the triangles alone (closed or not, edge
-neighbours, corners around the nodes) is kept for the last few connectivities, so that a
-posed hand's skin, a new surface every frame, does not work it out again.
+The winding number's tree is built lazily on the first inside query and again for every
+new set of coordinates (a few ms for the coarse skin's 2.7k facets, 30-80 ms for the fine
+one's 18k). ``closest(x, faces=patch)`` searches a patch only, on a hierarchy of its own,
+with the whole surface's normals. What depends on the triangles alone (closed or not, edge
+neighbours, corners around the nodes, the hierarchy's shape) is kept for the last few
+connectivities, so that a posed hand's skin, a new surface every frame, does not work it
+out again.
 
 :func:`surface_of_mesh` turns a volume mesh's boundary into outward triangles numbered as
 the volume mesh's nodes, so that the weights of a closest point act on volume nodes.
@@ -70,7 +76,7 @@ DEGENERATE_TOL = 1e-12
 #: corners around each node. A posed hand's skin is a new surface every frame, on the same
 #: triangles; what depends on the triangles alone is worked out once. The posing makes a
 #: surface of every bone each frame too: the record keeps up to ``_TOPOLOGY_KEPT`` surfaces
-#: and ``_TOPOLOGY_TRIANGLES`` triangles in all (about 80 bytes each), the least recently
+#: and ``_TOPOLOGY_TRIANGLES`` triangles in all (about 100 bytes each), the least recently
 #: used dropped first (at 8 surfaces, the hand's and ball's were dropped every frame).
 _TOPOLOGY: OrderedDict[tuple[int, bytes], dict[str, Any]] = OrderedDict()
 _TOPOLOGY_KEPT = 256
@@ -280,7 +286,8 @@ class TriangleSurface:
 
     Notes
     -----
-    Query methods take points ``(k, 3)`` and loop in C++ (libigl) and numpy only. The
+    Query methods take points ``(k, 3)`` and loop in compiled code (numba, libigl) and
+    numpy only. The
     acceleration structures are built on the first query that needs them; a surface that
     moves is best passed on with :meth:`moved`, which keeps the checked connectivity.
     """
