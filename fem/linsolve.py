@@ -33,6 +33,11 @@ REGULAR_RESIDUAL = 1e-6
 #: Most values of each full-length work array a partial solve keeps (see
 #: ``_Pardiso.solve_marked``): 4 M values, 32 MB.
 PARTIAL_WORK = 4_000_000
+#: Most columns of one partial solve call. The work arrays are fresh memory for each
+#: factorisation, and wide ones cost page faults (in PARDISO too) on their first call: the
+#: first set of the 83k-DOF Hertz frame took 25-134 ms of partial solves in chunks of
+#: 48-118 columns (capped by ``PARTIAL_WORK`` alone), 17-19 ms in chunks of 64.
+PARTIAL_COLUMNS = 64
 
 
 class Factorization(Protocol):
@@ -189,9 +194,9 @@ class _Pardiso:
         order of :attr:`marked`); so has the result.
 
         PARDISO reads and writes full-length vectors even here: they are kept between
-        calls (at most :data:`PARTIAL_WORK` values each, the columns taken in chunks
-        that fit), so a call touches no fresh memory and writes only the marked rows of
-        a right-hand side that stays zero elsewhere.
+        calls (the columns taken in chunks of at most :data:`PARTIAL_COLUMNS`, and of
+        :data:`PARTIAL_WORK` values), so a call touches little fresh memory and writes
+        only the marked rows of a right-hand side that stays zero elsewhere.
         """
         b = np.asarray(b, dtype=np.float64)
         m = self.marked.size
@@ -200,7 +205,7 @@ class _Pardiso:
         cols = b.reshape(m, -1)
         k = cols.shape[1]
         out = np.empty((m, k))
-        chunk = max(1, min(k, PARTIAL_WORK // max(self.n, 1)))
+        chunk = max(1, min(k, PARTIAL_COLUMNS, PARTIAL_WORK // max(self.n, 1)))
         rhs, x = self._partial_work(chunk)
         self._s.iparm[30] = 1
         try:

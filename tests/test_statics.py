@@ -288,14 +288,17 @@ def test_partial_solves_in_chunks_keep_their_work_arrays(body, monkeypatch):
     a = k[free][:, free].tocsr()
     marked = np.arange(3, a.shape[0], 4)
     inv = np.linalg.inv(a.toarray())[np.ix_(marked, marked)]
-    monkeypatch.setattr(fl, "PARTIAL_WORK", 3 * a.shape[0])  # three columns a chunk
-    f = fem.factorize(a, "pardiso", marked=marked)
     rng = np.random.default_rng(2)
-    for ncol in (7, 2, 5):  # chunks of 3, 3, 1; then fewer columns than kept
-        b = rng.standard_normal((marked.size, ncol))
-        np.testing.assert_allclose(f.solve_marked(b), inv @ b, rtol=1e-10, atol=1e-14)
-        assert f._work[0].shape[1] == 3
-        assert not f._work[0][np.setdiff1d(np.arange(a.shape[0]), marked)].any()
+    # three columns a chunk, capped by the values kept, then by the columns a call
+    for work, cols in ((3 * a.shape[0], 100), (100 * a.shape[0], 3)):
+        monkeypatch.setattr(fl, "PARTIAL_WORK", work)
+        monkeypatch.setattr(fl, "PARTIAL_COLUMNS", cols)
+        f = fem.factorize(a, "pardiso", marked=marked)
+        for ncol in (7, 2, 5):  # chunks of 3, 3, 1; then fewer columns than kept
+            b = rng.standard_normal((marked.size, ncol))
+            np.testing.assert_allclose(f.solve_marked(b), inv @ b, rtol=1e-10, atol=1e-14)
+            assert f._work[0].shape[1] == 3
+            assert not f._work[0][np.setdiff1d(np.arange(a.shape[0]), marked)].any()
     b = rng.standard_normal(marked.size)
     np.testing.assert_allclose(f.solve_marked(b), inv @ b, rtol=1e-10, atol=1e-14)
     with pytest.raises(fem.SolverError, match=f"expected {marked.size} rows"):
