@@ -215,7 +215,8 @@ class ElasticBody:
     @cached_property
     def size(self) -> float:
         """The body's extent (largest side of its bounding box)."""
-        return float(np.ptp(self.mesh.points, axis=0).max())
+        lo, hi = fem.bounding_box(self.mesh.points)
+        return float((hi - lo).max())
 
     @cached_property
     def node_areas(self) -> NDArray[np.float64]:

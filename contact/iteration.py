@@ -224,7 +224,8 @@ class _Frame:
         self.renewed: dict[int, dict[int, int]] = {}
         self.relinearised: dict[int, dict[int, int]] = {}
         self._loads = max(float(np.linalg.norm(b.loads)) for b in self.bodies)
-        self.extent = float(np.ptp(np.vstack([b.mesh.points for b in self.bodies]), axis=0).max())
+        boxes = np.array([fem.bounding_box(b.mesh.points) for b in self.bodies])  # (b, 2, 3)
+        self.extent = float((boxes[:, 1].max(axis=0) - boxes[:, 0].min(axis=0)).max())
         self.timings = {"geometry": 0.0, "contact solve": 0.0, "bodies": 0.0, "mortar": 0.0}
         t = time.perf_counter()
         # mortar rows come from the reference geometry, once per frame
