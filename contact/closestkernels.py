@@ -14,6 +14,9 @@ closest facet with the barycentric weights of its closest point (Ericson's regio
 as :func:`contact.surfacequery.closest_on_triangles`: exactly zero weights for the nodes
 off an edge or a vertex the point lies on).
 
+:func:`facet_cross` gives the facets' doubled-area vectors at new coordinates (normals and
+areas of a moved surface) in one pass: numpy's gathers of the corners cost ten times more.
+
 The first call compiles (a few seconds); the machine code is cached next to this module
 (numba's ``cache=True``).
 """
@@ -24,7 +27,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ["LEAF", "TIE", "build_tree", "closest_faces", "refit"]
+__all__ = ["LEAF", "TIE", "build_tree", "closest_faces", "facet_cross", "refit"]
 
 #: Most facets in a leaf of the hierarchy.
 LEAF = 4
@@ -316,3 +319,27 @@ def closest_faces(
         bary[i, 0], bary[i, 1], bary[i, 2] = b0, b1, b2
         d2[i] = best
     return face, bary, d2
+
+
+@njit(cache=True)
+def facet_cross(
+    points: NDArray[np.float64], triangles: NDArray[np.int64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``(b - a) x (c - a)`` of every triangle ``(m, 3)`` and its length ``(m,)``."""
+    m = triangles.shape[0]
+    cross = np.empty((m, 3))
+    dbl = np.empty(m)
+    for t in range(m):
+        ia, ib, ic = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+        ab0 = points[ib, 0] - points[ia, 0]
+        ab1 = points[ib, 1] - points[ia, 1]
+        ab2 = points[ib, 2] - points[ia, 2]
+        ac0 = points[ic, 0] - points[ia, 0]
+        ac1 = points[ic, 1] - points[ia, 1]
+        ac2 = points[ic, 2] - points[ia, 2]
+        c0 = ab1 * ac2 - ab2 * ac1
+        c1 = ab2 * ac0 - ab0 * ac2
+        c2 = ab0 * ac1 - ab1 * ac0
+        cross[t, 0], cross[t, 1], cross[t, 2] = c0, c1, c2
+        dbl[t] = np.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+    return cross, dbl

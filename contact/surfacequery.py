@@ -230,14 +230,16 @@ def degenerate_triangles(
         Its length, twice the area.
     bad : ndarray of bool, shape (m,)
     """
-    a, b, c = (points[triangles[:, i]] for i in range(3))
-    ab, ac = b - a, c - a
-    cross = np.empty_like(ab)
-    cross[:, 0] = ab[:, 1] * ac[:, 2] - ab[:, 2] * ac[:, 1]
-    cross[:, 1] = ab[:, 2] * ac[:, 0] - ab[:, 0] * ac[:, 2]
-    cross[:, 2] = ab[:, 0] * ac[:, 1] - ab[:, 1] * ac[:, 0]
-    dbl = np.sqrt(np.einsum("ij,ij->i", cross, cross))
-    return cross, dbl, _flat(points, triangles, dbl, tol)
+    x = np.ascontiguousarray(points, dtype=np.float64)
+    tri = np.ascontiguousarray(triangles, dtype=np.int64)
+    if tri.ndim != 2 or tri.shape[1] != 3 or x.ndim != 2 or x.shape[1] != 3:
+        raise SurfaceError(
+            f"points (n, 3) and triangles (m, 3) expected, got {x.shape} and {tri.shape}"
+        )
+    if tri.size and (tri.min() < 0 or tri.max() >= len(x)):
+        raise SurfaceError(f"triangles refer to nodes outside 0..{len(x) - 1}")
+    cross, dbl = kernels.facet_cross(x, tri)
+    return cross, dbl, _flat(x, tri, dbl, tol)
 
 
 def _flat(
@@ -330,9 +332,8 @@ class TriangleSurface:
             raise SurfaceError(f"{self.name}: points must have shape (n, 3), got {pts.shape}")
         if n is not None and len(pts) != n:
             raise SurfaceError(f"{self.name}: moved() needs {n} points, got {len(pts)}")
-        bad = ~np.isfinite(pts).all(axis=1)
-        if bad.any():
-            i = np.flatnonzero(bad)
+        if not np.isfinite(pts).all():
+            i = np.flatnonzero(~np.isfinite(pts).all(axis=1))
             raise SurfaceError(
                 f"{self.name}: {i.size} point(s) have non-finite coordinates, first: point {i[0]}"
             )

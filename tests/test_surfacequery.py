@@ -399,3 +399,26 @@ def test_ties_at_edges_and_corners_do_not_depend_on_the_facet_order():
         np.testing.assert_allclose(point, [[1, 1, 1], [1, 0.5, 1], [0, 0.25, 0]], atol=1e-15)
         np.testing.assert_allclose(normal, answers[0][2], atol=1e-15)
     np.testing.assert_allclose(answers[0][2][0], np.full(3, 1 / np.sqrt(3)), atol=1e-15)
+
+
+def test_facet_cross_products_and_degenerate_facets():
+    """The compiled doubled-area vectors equal numpy's cross products; a repeated corner
+    and a sliver are degenerate; triangles off the points are refused, not read."""
+    from contact.surfacequery import degenerate_triangles
+
+    rng = np.random.default_rng(8)
+    x = rng.normal(size=(50, 3))
+    tri = np.array([rng.choice(50, 3, replace=False) for _ in range(200)])
+    tri[:3, 1] = tri[:3, 0]  # a repeated node: zero area
+    x[49] = 0.5 * (x[47] + x[48]) + 1e-14  # a sliver of three nearly aligned nodes
+    tri[3] = [47, 48, 49]
+    cross, dbl, bad = degenerate_triangles(x, tri)
+    ref = np.cross(x[tri[:, 1]] - x[tri[:, 0]], x[tri[:, 2]] - x[tri[:, 0]])
+    np.testing.assert_allclose(cross, ref, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(dbl, np.linalg.norm(ref, axis=1), rtol=1e-15, atol=1e-15)
+    y = x[tri]
+    edge2 = np.max([((y[:, i] - y[:, (i + 1) % 3]) ** 2).sum(axis=1) for i in range(3)], 0)
+    np.testing.assert_array_equal(bad, np.linalg.norm(ref, axis=1) <= 1e-12 * edge2)
+    assert bad[:4].all() and bad.sum() == 4
+    with pytest.raises(SurfaceError, match=r"outside 0\.\.49"):
+        degenerate_triangles(x, np.array([[0, 1, 50]]))
