@@ -300,9 +300,9 @@ def closest_faces(
                     if s2 < better or z > zeros or (z == zeros and t < bf):
                         best, bf, zeros = s2, t, z
                         b0, b1, b2 = w[0], w[1], w[2]
-                        d = np.sqrt(best)
-                        reach = (d + tie) ** 2
-                        better = max(d - tie, 0.0) ** 2
+                        dist = np.sqrt(best)
+                        reach = (dist + tie) ** 2
+                        better = max(dist - tie, 0.0) ** 2
                 continue
             dl = _box_d2(x, lo, hi, c)
             dr = _box_d2(x, lo, hi, c + 1)

@@ -529,13 +529,13 @@ class _Frame:
                 continue
             tol = self.tol(pair, p.nodes)
             mine = rows.pair == i
-            held = rows.node[mine]
+            in_rows = rows.node[mine]
             n_slave = pair.slave.mesh.n_points
-            active = _among(p.nodes, held, n_slave)
+            active = _among(p.nodes, in_rows, n_slave)
             # a contact whose node has moved away from its master by half an element (or
             # out of reach) no longer has a valid linearised row: the body slid off it
             far = active & (p.gap > 0.5 * self.local[pair.slave.name][p.nodes])
-            lost = np.unique(held[~_among(held, p.nodes, n_slave)])
+            lost = np.unique(in_rows[~_among(in_rows, p.nodes, n_slave)])
             gone = np.concatenate([p.nodes[far], lost])
             self.broken += gone.size
             broken.append(gone + i * _KEY_STRIDE)

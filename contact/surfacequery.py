@@ -289,9 +289,9 @@ class TriangleSurface:
     Notes
     -----
     Query methods take points ``(k, 3)`` and loop in compiled code (numba, libigl) and
-    numpy only. The
-    acceleration structures are built on the first query that needs them; a surface that
-    moves is best passed on with :meth:`moved`, which keeps the checked connectivity.
+    numpy only. The acceleration structures are built on the first query that needs them;
+    a surface that moves is best passed on with :meth:`moved`, which keeps the checked
+    connectivity and the closest-point hierarchy's shape.
     """
 
     def __init__(self, points: ArrayLike, triangles: ArrayLike, *, name: str = "surface") -> None:
