@@ -422,3 +422,27 @@ def test_facet_cross_products_and_degenerate_facets():
     assert bad[:4].all() and bad.sum() == 4
     with pytest.raises(SurfaceError, match=r"outside 0\.\.49"):
         degenerate_triangles(x, np.array([[0, 1, 50]]))
+
+
+def test_compiled_weights_equal_the_numpy_region_test():
+    """The hierarchy's closest-point weights are Ericson's region test as
+    :func:`closest_on_triangles` computes it: the same regions (exact zeros) and weights."""
+    from contact.closestkernels import _weights
+
+    rng = np.random.default_rng(12)
+    k = 3000
+    corners = rng.normal(size=(k, 3, 3))
+    x = 2.0 * rng.normal(size=(k, 3))
+    ref = closest_on_triangles(x, corners[:, 0], corners[:, 1], corners[:, 2])
+    got = np.empty((k, 3))
+    d2 = np.empty(k)
+    tri = np.array([0, 1, 2])
+    for i in range(k):
+        w = np.empty(3)
+        d2[i] = _weights(x[i], corners[i], tri, w)
+        got[i] = w
+    np.testing.assert_array_equal(got == 0.0, ref == 0.0)
+    np.testing.assert_allclose(got, ref, rtol=0, atol=1e-12)
+    point = np.einsum("ki,kij->kj", ref, corners)
+    np.testing.assert_allclose(d2, ((x - point) ** 2).sum(axis=1), rtol=1e-10, atol=1e-14)
+    assert set(np.unique((ref == 0).sum(axis=1))) == {0, 1, 2}  # facets, edges, vertices
