@@ -446,3 +446,24 @@ def test_compiled_weights_equal_the_numpy_region_test():
     point = np.einsum("ki,kij->kj", ref, corners)
     np.testing.assert_allclose(d2, ((x - point) ** 2).sum(axis=1), rtol=1e-10, atol=1e-14)
     assert set(np.unique((ref == 0).sum(axis=1))) == {0, 1, 2}  # facets, edges, vertices
+
+
+def test_closest_far_from_the_origin_and_on_elongated_facets():
+    """A surface 1 km from the origin (a scene in survey coordinates) and one of long thin
+    facets (a stretched mesh from another tool): the same closest points as brute force,
+    the ties' rounding band scaled with the coordinates."""
+    s = _sphere(2)
+    rng = np.random.default_rng(21)
+    x = rng.normal(size=(400, 3)) * rng.uniform(0.05, 1.6, (400, 1))
+    shift = np.array([1000.0, -2000.0, 500.0])
+    far = TriangleSurface(s.points + shift, s.triangles, name="far sphere")
+    a, b = s.closest(x), far.closest(x + shift)
+    np.testing.assert_allclose(b.distance, a.distance, rtol=0, atol=1e-11)
+    np.testing.assert_allclose(b.point - shift, a.point, rtol=0, atol=1e-11)
+    np.testing.assert_array_equal(b.feature, a.feature)
+    long = TriangleSurface(s.points * [50.0, 1.0, 0.02], s.triangles, name="stretched")
+    y = x * [50.0, 1.0, 0.02]
+    c = long.closest(y)
+    d, p = _brute_force(long, y)
+    np.testing.assert_allclose(c.distance, d, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(c.point, p, rtol=0, atol=1e-9)
