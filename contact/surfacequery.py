@@ -343,8 +343,9 @@ class TriangleSurface:
 
     def _set_points(self, pts: NDArray[np.float64]) -> None:
         self.points: NDArray[np.float64] = pts
-        cross, dbl, degenerate = degenerate_triangles(pts, self.triangles, DEGENERATE_TOL)
-        bad = np.flatnonzero(degenerate)
+        # the connectivity is checked once (__init__): no index checks at every move
+        cross, dbl = kernels.facet_cross(pts, self.triangles)
+        bad = np.flatnonzero(_flat(pts, self.triangles, dbl, DEGENERATE_TOL))
         if bad.size:
             x = pts[self.triangles[bad]]
             raise SurfaceError(
