@@ -64,24 +64,24 @@ def main(argv: list[str]) -> int:
     """Run the grasp command line ``argv[1:]``; write the stage times to ``argv[0]``."""
     path, args = argv[0], argv[1:]
     t0 = time.perf_counter()
-    import contact.body
     import contact.grasp
-    import contact.output
-    import contact.scene
+    import contact.output.writer
+    import contact.scene.read
+    import contact.solver.body
     import fem
 
     imports = time.perf_counter() - t0
     grasp = contact.grasp
-    _wrap(contact.scene, "load_scene", "load_mesh")
+    _wrap(contact.scene.read, "load_scene", "load_mesh")
     _wrap(grasp.GraspRun, "__post_init__", "load_mesh")
     for name in ("angles", "ball_body", "hand_body", "check_bones"):
         _wrap(grasp.GraspRun, name, "posing")
-    _wrap(contact.body.ElasticBody, "__init__", "assemble_factor")
+    _wrap(contact.solver.body.ElasticBody, "__init__", "assemble_factor")
     # bodies factor lazily, inside the contact iteration once their contact zone is marked
     _wrap(fem.StaticSolver, "factorize", "assemble_factor")
     _wrap(grasp, "solve_frame", "contact")
     for name in ("__init__", "add_frame", "finish"):
-        _wrap(contact.output.ResultsWriter, name, "writing")
+        _wrap(contact.output.writer.ResultsWriter, name, "writing")
     _wrap(grasp, "main", "other")
     status = grasp.main(args)
     end = time.perf_counter()

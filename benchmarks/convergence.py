@@ -21,7 +21,7 @@ grows) and, for tet4, by the same bricks split into 24 tetrahedra each
 run at 0.45, where fully integrated bricks stiffen (volumetric locking, a known limit of
 HEX8 in :mod:`fem`). Rates are least-squares slopes of ``log error`` against ``log h``.
 
-Hertz: the octant model of :mod:`contact.hertz` (ball R = 1 m, E = 1 Pa, nu = 0.3,
+Hertz: the octant model of :mod:`contact.cases.hertz` (ball R = 1 m, E = 1 Pa, nu = 0.3,
 between rigid frictionless plates advancing 0.01 R), ``h`` its cell size at the poles;
 the contact radius and peak pressure against Hertz for the solver's own force (as in
 :mod:`benchmarks.hertz`) and the total force against Hertz's force for the plate's advance.
@@ -39,7 +39,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 import fem
-from contact.hertz import effective_modulus, hertz_check
+from contact.cases.hertz import effective_modulus, hertz_check
 from fem.elements import ELEMENTS
 from fem.mapping import det3, inv3, jacobians
 

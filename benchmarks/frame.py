@@ -26,10 +26,10 @@ from pathlib import Path
 import numpy as np
 
 import fem
-from contact.body import ElasticBody
-from contact.hertz_bodies import hertz_scene
-from contact.iteration import ContactSettings, solve_frame
-from contact.results import FrameResult
+from contact.cases.hertz_bodies import hertz_scene
+from contact.solver.body import ElasticBody
+from contact.solver.iteration import ContactSettings, solve_frame
+from contact.solver.results import FrameResult
 
 from ._common import (
     Column,
@@ -219,7 +219,7 @@ def _hertz_rows(quick: bool) -> list[dict]:
 def _example_rows(repeat: int = REPEAT) -> list[dict]:
     """Every frame of the README's example scene, as ``python -m contact.grasp`` solves it."""
     from contact.grasp import GraspRun
-    from contact.scene import load_scene
+    from contact.scene.read import load_scene
 
     path = Path(__file__).resolve().parents[1] / "examples" / "grasp.toml"
     best: list[dict] = []

@@ -3,11 +3,11 @@
 An elastic ball (R = 1 m, E = 1 Pa, nu = 0.3) between two rigid frictionless plates, each
 advancing by 0.01 R (a/R about 0.1), modelled by its octant with three symmetry planes on
 :func:`fem.generators.graded_ball_mesh`, refined at the poles
-(:func:`contact.hertz.hertz_check`). Errors are against Hertz for the solver's own total
+(:func:`contact.cases.hertz.hertz_check`). Errors are against Hertz for the solver's own total
 force: the moment radius with the interpolation excess removed (and without it, "nodal"),
 the radius and the peak pressure of the Hertz profile fitted to the interior nodal
 forces (consistently, and lumped: to the nodal pressures f_i / A_i; see
-:mod:`contact.hertz`).
+:mod:`contact.cases.hertz`).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import gc
 import time
 from pathlib import Path
 
-from contact.hertz import hertz_check
+from contact.cases.hertz import hertz_check
 
 from ._common import (
     Column,

@@ -1,6 +1,6 @@
 """Hertz between two deformable bodies: errors and iterations of both algorithms.
 
-Two quarter-model scenes of :mod:`contact.hertz_bodies`: a sphere (R1 = 1 m) pressed onto
+Two quarter-model scenes of :mod:`contact.cases.hertz_bodies`: a sphere (R1 = 1 m) pressed onto
 an elastic block 20 contact radii wide and deep, and two spheres (R1 = 1 m on R2 = 2 m,
 1/R = 1/R1 + 1/R2), interference 0.01 R (a/R about 0.1), nu = 0.3, the top sphere's
 modulus ``ratio`` times the other body's, ratios 0.01 to 100, on three meshes (cell size
@@ -21,9 +21,9 @@ import time
 from pathlib import Path
 
 import fem
-from contact.hertz_bodies import hertz_bodies_check, hertz_scene
-from contact.iteration import ContactSettings, solve_frame
-from contact.results import FrameResult
+from contact.cases.hertz_bodies import hertz_bodies_check, hertz_scene
+from contact.solver.iteration import ContactSettings, solve_frame
+from contact.solver.results import FrameResult
 
 from ._common import (
     Column,

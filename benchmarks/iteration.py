@@ -9,10 +9,10 @@ Two scenes, both with two deformable bodies:
     surface pairs both ways between ball and hand.
 ``"sphere-block"``
     Hertz's sphere (R = 1 m, quarter model) pressed 0.01 m into an elastic block
-    (:func:`contact.hertz_bodies.hertz_scene`), the sphere ``ratio`` times stiffer than
+    (:func:`contact.cases.hertz_bodies.hertz_scene`), the sphere ``ratio`` times stiffer than
     the block, graded hex meshes of ``fine_size`` cells at the contact.
 
-Algorithms (:func:`contact.iteration.solve_frame`): ``"contact-space"`` (contact-set
+Algorithms (:func:`contact.solver.iteration.solve_frame`): ``"contact-space"`` (contact-set
 updates, each solved exactly with both bodies' compliance) and seed 000's
 Dirichlet-Neumann loop with each relaxation of its Neumann side (none, a fixed factor
 0.5, Aitken's). The seed loop's Dirichlet body is the ball (the sphere): in the hand
@@ -53,9 +53,9 @@ from typing import Any
 import numpy as np
 
 import contact
-from contact.hertz_bodies import hertz_scene
-from contact.iteration import ContactSettings, solve_frame
-from contact.results import FrameResult
+from contact.cases.hertz_bodies import hertz_scene
+from contact.solver.iteration import ContactSettings, solve_frame
+from contact.solver.results import FrameResult
 
 from ._common import (
     Column,

@@ -1,7 +1,7 @@
 """The unilateral contact solve on large contact sets: time against one factorisation.
 
 A whole hand on a ball makes contact sets of a few thousand rows. The contact-space
-iteration solves their forces as a frictionless LCP (:func:`contact.lcp.solve_lcp`): a
+iteration solves their forces as a frictionless LCP (:func:`contact.solver.lcp.solve_lcp`): a
 primal active-set method whose steps solve the closed rows' equality problem, each by
 bordering the last Cholesky factorisation with the rows opened and closed since.
 
@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 import scipy.linalg as sla
 
-from contact.lcp import solve_lcp
+from contact.solver.lcp import solve_lcp
 
 from ._common import (
     Column,
@@ -79,7 +79,7 @@ def _case(n: int) -> dict:
     w, gap, _, h = half_space(n)
     m = gap.size
     # closed at first: the rows deeper than half the deepest overlap, as the contact
-    # iteration's first set (contact.iteration._first)
+    # iteration's first set (contact.solver.iteration._first)
     start = np.where(gap < -0.5 * PRESS, 1.0, 0.0)
     t = time.perf_counter()
     res = solve_lcp(w, np.zeros((m, 0)), -gap, np.zeros(0), tol=1e-9 * PRESS, start=start)

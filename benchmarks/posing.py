@@ -33,10 +33,10 @@ from pathlib import Path
 
 import numpy as np
 
-from contact.hand import load_hand
-from contact.keyframes import Keyframes
-from contact.posing import HandPoser, tet_quality, tet_volumes
-from contact.skeleton import Skeleton
+from contact.hand.keyframes import Keyframes
+from contact.hand.posing import HandPoser, tet_quality, tet_volumes
+from contact.hand.shipped import load_hand
+from contact.hand.skeleton import Skeleton
 
 from ._common import (
     Column,
@@ -435,7 +435,7 @@ def _write_report(
             "quality: "
             + ", ".join(f"{k} {v:.4f}" for k, v in rest.items())
             + ". A frame: the JLD mapping, then the relaxation of the free nodes around "
-            "the tetrahedra it degrades (contact.posing.FleshRelaxer, a projected Newton "
+            "the tetrahedra it degrades (contact.hand.posing.FleshRelaxer, a projected Newton "
             "method on an untangling energy; each connected part of the patch starts from "
             "the lower-energy of the mapping and the harmonic fill of its folds); the time "
             "grows with the degraded region (deep flexions); it stops when its energy "
@@ -443,8 +443,8 @@ def _write_report(
             "inverted restarts its neighbourhood from a nearby bone's rigid motion "
             "(untangled on its volumes first). The joints are open (no "
             "tetrahedron tied to both bones of a joint), every joint keeps its bones at "
-            "least 1 mm apart over its range (contact.bones.joint_clearance) and, on a "
-            "mesh built or reopened since contact.jointgap.split_joint_gaps (the fine "
+            "least 1 mm apart over its range (contact.hand.bones.joint_clearance) and, on a "
+            "mesh built or reopened since contact.hand.jointgap.split_joint_gaps (the fine "
             "one), no free node is tied by its edges to two bones.",
         ),
         (

@@ -37,8 +37,8 @@ from pathlib import Path
 
 import numpy as np
 
-from contact.hand import load_hand
-from contact.posing import HandPoser
+from contact.hand.posing import HandPoser
+from contact.hand.shipped import load_hand
 
 from .posing import sequence_poses
 

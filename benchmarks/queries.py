@@ -5,8 +5,8 @@ the other's closed skin and where their closest points on it are. The skin moves
 iteration, so building the search structure counts as much as querying it: both are timed
 apart. Candidates (each skipped when its package is not installed):
 
-* ``contact.surfacequery`` -- what the contact code uses: its own bounding-volume
-  hierarchy compiled with numba (:mod:`contact.closestkernels`) for the closest facet and
+* ``contact.geometry.surfacequery`` -- what the contact code uses: its own bounding-volume
+  hierarchy compiled with numba (:mod:`contact.geometry.closestkernels`) for the closest facet and
   the exact barycentric weights, pseudo-normals in numpy, libigl's fast winding number for
   inside (``pseudonormal``: the sign of the closest point's normal). Its build is timed
   twice: for a new connectivity (the hierarchy's shape and its boxes), and for the same
@@ -44,7 +44,7 @@ from typing import Any
 
 import numpy as np
 
-from contact.surfacequery import TriangleSurface, closest_on_triangles
+from contact.geometry.surfacequery import TriangleSurface, closest_on_triangles
 
 from ._common import (
     Column,
@@ -384,10 +384,11 @@ def _vtk_inside(method: str) -> Callable:
 
 CANDIDATES: tuple[Candidate, ...] = (
     Candidate(
-        "contact.surfacequery", "closest", "numba", "numba", "float64", _ours_build, _ours_closest
+        "contact.geometry.surfacequery", "closest", "numba", "numba", "float64",
+        _ours_build, _ours_closest,
     ),
     Candidate(
-        "contact.surfacequery, moved (refit)", "closest", "numba", "numba", "float64",
+        "contact.geometry.surfacequery, moved (refit)", "closest", "numba", "numba", "float64",
         _ours_refit, _ours_closest,
     ),
     Candidate(
@@ -404,11 +405,11 @@ CANDIDATES: tuple[Candidate, ...] = (
         _vtk_locator_build, _vtk_locator_closest, VTK_LOOP_LIMIT,
     ),
     Candidate(
-        "contact.surfacequery (winding)", "inside", "igl", "libigl", "float64",
+        "contact.geometry.surfacequery (winding)", "inside", "igl", "libigl", "float64",
         _ours_wn_build, lambda s, v, f, x: s.inside(x),
     ),
     Candidate(
-        "contact.surfacequery (pseudonormal)", "inside", "numba", "numba", "float64",
+        "contact.geometry.surfacequery (pseudonormal)", "inside", "numba", "numba", "float64",
         _ours_build, _ours_pn,
     ),
     Candidate(
@@ -465,12 +466,12 @@ with a permissive licence. float32 (fcpw, Open3D, embreex) puts the closest poin
 off on a 0.25 m hand, which is the size of the gaps the contact iteration resolves;
 Open3D's faster rays come with a 400 MB install and a system library.
 
-Since then the closest facet is searched by `contact.closestkernels` (numba, a dependency
+Since then the closest facet is searched by `contact.geometry.closestkernels` (numba, a dependency
 already): the contact iteration asks a few hundred points at a time at new coordinates,
 and libigl's tree had to be built again for each set (3 ms on the coarse skin, more than
 the search). The hierarchy's shape is kept per connectivity and only its boxes are
 refitted (the `moved (refit)` rows). libigl stays for the winding number.
-`contact.surfacequery` computes the point on the facet exactly (weights and distance to
+`contact.geometry.surfacequery` computes the point on the facet exactly (weights and distance to
 rounding; libigl's own distance, the square root of a squared distance, is only good to
 ~1e-12 relative near the surface).
 """
@@ -481,7 +482,7 @@ rounding; libigl's own distance, the square root of a squared distance, is only 
 
 def _skin(resolution: str) -> tuple[np.ndarray, np.ndarray]:
     from contact import load_hand
-    from contact.surfaces import surface_arrays
+    from contact.geometry.surfaces import surface_arrays
 
     v, f = surface_arrays(load_hand(resolution).skin)
     return np.ascontiguousarray(v), np.ascontiguousarray(f)

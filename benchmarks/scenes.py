@@ -24,10 +24,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 import fem
-from contact.body import ElasticBody
-from contact.geometry import Plane
-from contact.hand import Hand, load_hand
-from contact.pairs import ContactPair
+from contact.geometry.plane import Plane
+from contact.hand.shipped import Hand, load_hand
+from contact.solver.body import ElasticBody
+from contact.solver.pairs import ContactPair
 
 __all__ = [
     "BALL_RADIUS",

@@ -1,6 +1,6 @@
 """Hertz against a peer: the same press solved by SfePy's penalty contact, side by side.
 
-The scene is that of :mod:`benchmarks.hertz` (:func:`contact.hertz.hertz_check`): the
+The scene is that of :mod:`benchmarks.hertz` (:func:`contact.cases.hertz.hertz_check`): the
 octant of an elastic ball (R = 1 m, E = 1 Pa, nu = 0.3) on the graded hex mesh of
 :func:`fem.generators.graded_ball_mesh`, zero normal displacement on its three symmetry
 planes, the table ``z = 0`` advanced by 0.01 R (a/R about 0.1). Our solver runs it
@@ -19,12 +19,12 @@ k`` and the patch spreads; stiff, Newton needs more updates of its active set.
 
 SfePy's contact force is read as ours is: the nodal reactions ``K u`` of the
 contact nodes (SfePy's own ``dw_lin_elastic`` evaluated on its solution; checked against
-the penalty term's nodal forces), fed to :func:`contact.hertz.measure_contact_patch`
+the penalty term's nodal forces), fed to :func:`contact.cases.hertz.measure_contact_patch`
 (moment radius, fitted peak pressure) and compared with Hertz for SfePy's own force.
 
 Times are of the whole solve from the mesh arrays on, the measurement left out: ours,
 assembly + factorisation + contact iteration (the ``body`` and ``contact`` seconds of
-:func:`~contact.hertz.hertz_check`); SfePy's, the domain, regions, field, terms and
+:func:`~contact.cases.hertz.hertz_check`); SfePy's, the domain, regions, field, terms and
 problem set-up plus the Newton solve (its own split: tangent assembly, linear solves,
 residuals). Both get MKL PARDISO (SfePy's ``ls.pypardiso``, the fastest of its solvers
 here; its default ``ls.scipy_direct`` falls back to SuperLU without scikit-umfpack and is
@@ -60,7 +60,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from contact.hertz import (
+from contact.cases.hertz import (
     ContactPatch,
     HertzCheck,
     HertzErrors,
@@ -838,7 +838,7 @@ def run(quick: bool = False, out: str | Path | None = None) -> list[dict]:
         f"({DEPTH} R); SfePy: `dw_lin_elastic` + `dw_contact_plane` (linear penalty `k d`, "
         f"integral order {CONTACT_ORDER} on the faces), `nls.newton` (`ls_on = 2`, eps_r "
         "1e-10), `ls.pypardiso`. Errors against Hertz for each code's own force, measured "
-        "alike (`contact.hertz.measure_contact_patch` on the nodal reactions K u of the "
+        "alike (`contact.cases.hertz.measure_contact_patch` on the nodal reactions K u of the "
         "contact nodes). 'force vs ours' compares the total forces at the same table advance "
         f"(a soft penalty lets the ball sink in). Times: ours best of {REPEAT} runs, "
         "SfePy's fastest run within the accuracy on each mesh best of 2, the rest of its "

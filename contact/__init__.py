@@ -15,21 +15,26 @@ series, pictures) of :class:`BodyFrame` bodies with each frame's :func:`verdict`
 
 from __future__ import annotations
 
-from .animation import render_sequence
-from .autoflex import AutoFlexResult, auto_flex
 from .ball import Ball, BallError, BallSpec, make_ball
-from .bones import bone_surfaces
 from .errors import PoseError, RigError
-from .hand import Hand, load_hand
-from .jld import JLDMap
-from .keyframes import Clamp, Key, Keyframes
-from .metaballs import skin_surface
-from .objects import ObjectAssociation
-from .output import BodyFrame, ResultsWriter, verdict
-from .posing import HandPoser, Pose, pose_hand
-from .scene import Scene, SceneError, load_scene
-from .skeleton import Skeleton, load_skeleton
-from .surfacequery import Closest, SurfaceError, TriangleSurface, surface_of_mesh
+from .geometry.plane import Plane
+from .geometry.surfacequery import Closest, SurfaceError, TriangleSurface, surface_of_mesh
+from .hand.animation import render_sequence
+from .hand.autoflex import AutoFlexResult, auto_flex
+from .hand.bones import bone_surfaces
+from .hand.jld import JLDMap
+from .hand.keyframes import Clamp, Key, Keyframes
+from .hand.metaballs import skin_surface
+from .hand.objects import ObjectAssociation
+from .hand.posing import HandPoser, Pose, pose_hand
+from .hand.shipped import Hand, load_hand
+from .hand.skeleton import Skeleton, load_skeleton
+from .output.writer import BodyFrame, ResultsWriter, verdict
+from .scene.read import Scene, SceneError, load_scene
+from .solver.body import ElasticBody
+from .solver.iteration import ContactSettings, solve_frame
+from .solver.pairs import ContactPair
+from .solver.results import FrameResult
 
 __all__ = [
     "AutoFlexResult",
@@ -39,12 +44,17 @@ __all__ = [
     "BodyFrame",
     "Clamp",
     "Closest",
+    "ContactPair",
+    "ContactSettings",
+    "ElasticBody",
+    "FrameResult",
     "Hand",
     "HandPoser",
     "JLDMap",
     "Key",
     "Keyframes",
     "ObjectAssociation",
+    "Plane",
     "Pose",
     "PoseError",
     "ResultsWriter",
@@ -63,6 +73,7 @@ __all__ = [
     "pose_hand",
     "render_sequence",
     "skin_surface",
+    "solve_frame",
     "surface_of_mesh",
     "verdict",
 ]

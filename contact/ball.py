@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 import fem
 
-from .errors import ContactError
+from .errors import BallError
 
 __all__ = [
     "LOCKING_NOTE",
@@ -52,10 +52,6 @@ LOCKING_NOTE = (
 )
 log = logging.getLogger(__name__)
 _ICO_EDGE = 4.0 / math.sqrt(10.0 + 2.0 * math.sqrt(5.0))  # icosahedron edge / circumradius
-
-
-class BallError(ContactError, ValueError):
-    """A ball specification or mesh file is invalid; one line naming the field or file."""
 
 
 def _number(name: str, value: object) -> float:

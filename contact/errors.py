@@ -2,7 +2,16 @@
 
 from __future__ import annotations
 
-__all__ = ["ContactError", "PoseError", "RigError"]
+__all__ = [
+    "BallError",
+    "ContactError",
+    "InputError",
+    "OutputError",
+    "PoseError",
+    "RigError",
+    "SceneError",
+    "SurfaceError",
+]
 
 
 class ContactError(Exception):
@@ -34,3 +43,23 @@ class PoseError(RigError):
         self.joint = joint
         self.element = element
         self.elements = elements
+
+
+class SceneError(ContactError, ValueError):
+    """A scene file is invalid: one line ``<file>: <key.path> = <value>: <what is wrong>``."""
+
+
+class InputError(ContactError, ValueError):
+    """Bad input found while setting a frame up (exit status 2)."""
+
+
+class BallError(ContactError, ValueError):
+    """A ball specification or mesh file is invalid; one line naming the field or file."""
+
+
+class SurfaceError(ContactError, ValueError):
+    """A triangle surface or a query is invalid; one line that names the surface."""
+
+
+class OutputError(ContactError, OSError):
+    """The results folder cannot be written (the message names the folder)."""

@@ -5,10 +5,11 @@ For every frame of the scene (seed 000, Fig. 9):
 1. position: the hand's joint angles from the keyframes (Kochanek-Bartels), closed further by
    automatic flexion where the scene asks for it, and every flesh node mapped by JLD; the
    ball placed (it may follow a joint); the planes moved;
-2. to 5. the contact iteration (:func:`contact.iteration.solve_frame`), contact space by
+2. to 5. the contact iteration (:func:`contact.solver.iteration.solve_frame`), contact space by
    default or the seed's literal loop;
 
-then the frame's bodies, forces and pictures are written (:class:`contact.output.ResultsWriter`).
+then the frame's bodies, forces and pictures are written
+(:class:`contact.output.writer.ResultsWriter`).
 The ball is factored once per scene (again only when a joint turns it); the hand once per
 pose. Exit status: 0 when every frame converged with every bone under its limit, 1 when a
 frame did not converge or a bone passed its limit (everything is still written), 2 for bad
@@ -33,14 +34,14 @@ from numpy.typing import NDArray
 import fem
 
 from .ball import LOCKING_NOTE, LOCKING_NU, Ball, make_ball
-from .body import ElasticBody
-from .errors import ContactError
-from .geometry import Plane
-from .iteration import solve_frame
-from .pairs import ContactPair
-from .posing import Pose
-from .results import FrameResult, IterationRecord
-from .scene import Scene
+from .errors import ContactError, InputError
+from .geometry.plane import Plane
+from .hand.posing import Pose
+from .scene.read import Scene
+from .solver.body import ElasticBody
+from .solver.iteration import solve_frame
+from .solver.pairs import ContactPair
+from .solver.results import FrameResult, IterationRecord
 
 __all__ = ["GraspRun", "main", "run"]
 
@@ -56,17 +57,13 @@ def _version() -> str:
         return "unknown"
 
 
-class InputError(ContactError, ValueError):
-    """Bad input found while setting a frame up (exit status 2)."""
-
-
 @dataclass
 class GraspRun:
     """A scene set up for solving: the bodies that last across frames.
 
     Parameters
     ----------
-    scene : contact.scene.Scene
+    scene : contact.scene.read.Scene
         The loaded scene.
     """
 
@@ -86,9 +83,9 @@ class GraspRun:
         self.nodal_pressure = False
         self.keyframes = None
         if sc.hand is not None:
-            from .hand import load_hand
-            from .keyframes import Keyframes
-            from .posing import HandPoser
+            from .hand.keyframes import Keyframes
+            from .hand.posing import HandPoser
+            from .hand.shipped import load_hand
 
             hs = sc.hand
             self.hand = load_hand(hs.resolution, hs.directory)
@@ -126,7 +123,7 @@ class GraspRun:
         for af in self.scene.hand.auto_flexion:
             if af.times is not None and not any(abs(t - s) <= 1e-12 for s in af.times):
                 continue
-            from .autoflex import auto_flex, sphere_distance
+            from .hand.autoflex import auto_flex, sphere_distance
 
             res = auto_flex(
                 self.hand,
@@ -155,7 +152,7 @@ class GraspRun:
         follow = self.scene.follow
         if follow is None or self.hand is None:
             return np.eye(4)
-        from .objects import ObjectAssociation
+        from .hand.objects import ObjectAssociation
 
         assoc = ObjectAssociation("ball", follow.joint, follow.start, follow.stop)
         return assoc.transform(self.hand.skeleton, self.keyframes.pose, t)  # type: ignore[union-attr]
@@ -219,7 +216,7 @@ class GraspRun:
 
     def check_bones(self, ball: ElasticBody, t: float) -> None:
         """Refuse a ball that starts inside a bone: its contact cannot be resolved."""
-        from .surfacequery import TriangleSurface
+        from .geometry.surfacequery import TriangleSurface
 
         hand = self.hand
         assert hand is not None and self._pose is not None
@@ -278,8 +275,8 @@ def run(
     quiet: bool = False,
 ) -> int:
     """Run a scene; return the exit status (0 realistic, 1 not, 2 bad input)."""
-    from .output import BodyFrame, ResultsWriter, versions
-    from .scene import load_scene
+    from .output.writer import BodyFrame, ResultsWriter, versions
+    from .scene.read import load_scene
 
     try:
         scene = load_scene(scene_path)

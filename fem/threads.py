@@ -3,7 +3,7 @@
 OpenBLAS's worker threads spin while they wait for work. Where another process keeps the
 other cores busy, a threaded Cholesky factorisation or product of a few hundred rows then
 takes tens of times longer than on one thread. Measured on two cores with one other busy
-process (the frictionless LCP of :mod:`contact.lcp`, Hertz on a half-space): 400 rows,
+process (the frictionless LCP of :mod:`contact.solver.lcp`, Hertz on a half-space): 400 rows,
 1.0 s threaded against 0.03 s on one thread; 1,024 rows, 1.5 s against 0.08 s; 3,025
 rows, 3.8-4.1 s against 0.8-1.1 s. On an idle machine the threads gain little (3,025
 rows: 0.65 s against 0.71 s), so dense problems below :data:`SMALL_DENSE` rows (every

@@ -15,16 +15,16 @@ import logging
 import time
 from pathlib import Path
 
-from contact.bones import joint_clearance
 from contact.errors import RigError
-from contact.hand import HAND_DIR, RESOLUTIONS, load_hand
-from contact.handbuild import COARSE, FINE, build_hand, hand_report, write_hand
-from contact.handchecks import finger_widths
-from contact.handmesh import joint_pairs, open_joints
-from contact.handplot import SIDE_VIEW, render_hand
-from contact.jointgap import split_joint_gaps
-from contact.metaballs import skin_surface
-from contact.skeleton import Skeleton, load_skeleton
+from contact.hand.bones import joint_clearance
+from contact.hand.build import COARSE, FINE, build_hand, hand_report, write_hand
+from contact.hand.checks import finger_widths
+from contact.hand.flesh import joint_pairs, open_joints
+from contact.hand.jointgap import split_joint_gaps
+from contact.hand.metaballs import skin_surface
+from contact.hand.plot import SIDE_VIEW, render_hand
+from contact.hand.shipped import HAND_DIR, RESOLUTIONS, load_hand
+from contact.hand.skeleton import Skeleton, load_skeleton
 
 log = logging.getLogger("meshes.build")
 
@@ -61,7 +61,7 @@ def check_clearance(skeleton: Skeleton) -> dict[str, float]:
     """Smallest bone gap of every joint over its range of motion (mm).
 
     Raises :class:`RigError` below the rig's ``flesh.gap`` (see
-    :func:`contact.bones.joint_clearance`).
+    :func:`contact.hand.bones.joint_clearance`).
     """
     out = {}
     gap = skeleton.spec.gap
@@ -97,9 +97,9 @@ def pictures(directory: Path) -> None:
 def reopen(resolution: str, directory: Path) -> dict:
     """Open the joints and split the joint gaps of a shipped flesh file (no re-meshing).
 
-    For files meshed before :func:`contact.handmesh.open_joints` dropped every
+    For files meshed before :func:`contact.hand.flesh.open_joints` dropped every
     tetrahedron tied to both bones of a joint, or before
-    :func:`contact.jointgap.split_joint_gaps` left two layers of free nodes in every gap
+    :func:`contact.hand.jointgap.split_joint_gaps` left two layers of free nodes in every gap
     between bones; rewrites the file and returns its new report.
     """
     import dataclasses

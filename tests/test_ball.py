@@ -10,8 +10,8 @@ import pytest
 
 import fem
 from contact.ball import Ball, BallError, BallSpec, make_ball
-from contact.body import ElasticBody
 from contact.errors import ContactError
+from contact.solver.body import ElasticBody
 
 R, T, P = 0.035, 0.012, 2.0e4
 CENTER = (0.01, 0.02, 0.03)

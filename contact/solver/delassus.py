@@ -1,0 +1,271 @@
+"""The contact forces of a fixed contact set, solved in contact space.
+
+For a fixed set of contact rows (:class:`contact.solver.pairs.ContactRows`), the fixed point of
+the seed's steps 2 to 5 (every contact closed, both bodies in equilibrium under the
+contact forces) solves a small dense system on the contact forces ``lambda``::
+
+    W lambda + G a = -(g0 + sum_b E_b u0_b)       (every gap closed)
+    G^T lambda     = -Phi^T f                     (every free body in balance)
+
+``W = sum_b E_b C_b E_b^T`` is the Delassus operator (each body's compliance ``C_b``
+seen from the contact rows: ``K11^-1``, or the pseudo-inverse of a free body), ``u0_b =
+C_b f_b`` each body's answer to its own loads, and ``G = [E_b Phi_b]`` the rigid modes
+``Phi_b`` of the free bodies with their amplitudes ``a``. The compliance of a row is
+computed once by back-solves with the body's one factorisation and kept
+(:meth:`fem.StaticSolver.compliance`): a contact set that changes by ``k`` rows costs
+``k`` back-solves per body.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+import fem
+from fem.statics import solve_saddle
+
+from ..errors import ContactError
+from .body import ElasticBody
+from .lcp import LcpResult, solve_lcp
+
+__all__ = ["BodyState", "ContactSpace", "ContactSystem"]
+
+
+@dataclass(frozen=True)
+class BodyState:
+    """A body's answer to its loads and contact forces.
+
+    Attributes
+    ----------
+    u : ndarray, shape (n_dofs,)
+        Displacements.
+    reactions : ndarray, shape (n_dofs,)
+        Support reactions at the prescribed DOFs (zero elsewhere).
+    rigid : ndarray
+        Rigid-mode amplitudes of a free body (empty otherwise).
+    """
+
+    u: NDArray[np.float64]
+    reactions: NDArray[np.float64]
+    rigid: NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class ContactSystem:
+    """The contact-space system ``[[W, G], [G^T, 0]] [lam; a] = [rhs; c]`` of a row set.
+
+    Attributes
+    ----------
+    w : ndarray, shape (m, m)
+        Delassus operator.
+    g : ndarray, shape (m, r)
+        The rows' values of the free bodies' placing modes.
+    rhs : ndarray, shape (m,)
+        ``-(g0 + sum_b E_b u0_b)``.
+    c : ndarray, shape (r,)
+        Minus the free bodies' loads in their modes.
+    free : tuple of str
+        The free bodies.
+    load_scale : float
+        Size of the free bodies' loads.
+    """
+
+    w: NDArray[np.float64]
+    g: NDArray[np.float64]
+    rhs: NDArray[np.float64]
+    c: NDArray[np.float64]
+    free: tuple[str, ...]
+    load_scale: float
+
+
+class ContactSpace:
+    """Solve the contact forces of a fixed contact set for several bodies at once.
+
+    Parameters
+    ----------
+    bodies : sequence of ElasticBody
+        Every body of the scene, each factored once.
+    """
+
+    def __init__(self, bodies: Sequence[ElasticBody]) -> None:
+        self.bodies = list(bodies)
+        self._u0: dict[str, NDArray[np.float64]] = {}
+
+    def free_response(self, body: ElasticBody, f: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``C f``: the body's displacement under loads ``f`` (a free body: rigid part removed)."""
+        s = body.solver
+        u = np.zeros(s.n)
+        ff = f[s.free]
+        if ff.any():  # no loads (a body held by its supports, or floating): no solve
+            u[s.free] = s.apply_inverse(ff)
+        return u
+
+    def own_response(self, body: ElasticBody) -> NDArray[np.float64]:
+        """The body's answer to its own loads, computed once."""
+        if body.name not in self._u0:
+            self._u0[body.name] = self.free_response(body, body.loads)
+        return self._u0[body.name]
+
+    def state(self, body: ElasticBody, forces: NDArray[np.float64], rigid: NDArray) -> BodyState:
+        """Displacement and support reactions of a body under its loads plus ``forces``."""
+        s = body.solver
+        f = body.loads + forces
+        u = self.own_response(body) + self.free_response(body, forces)
+        if s.free_body:
+            u = u + s.modes @ rigid
+        reactions = np.zeros(s.n)
+        if s.prescribed.size:
+            reactions[s.prescribed] = s.prescribed_rows @ u - f[s.prescribed]
+        return BodyState(u, reactions, np.asarray(rigid, dtype=np.float64))
+
+    def system(self, e: dict[str, sp.csr_matrix], g0: NDArray[np.float64]) -> ContactSystem:
+        """The contact-space system of rows ``e`` with reference gaps ``g0``.
+
+        Parameters
+        ----------
+        e : dict of str to sparse matrix
+            Each body's part ``E_b`` (m x n_dofs_b) of the rows.
+        g0 : ndarray, shape (m,)
+            Reference gaps of the rows.
+        """
+        m = g0.size
+        w = np.zeros((m, m))
+        rhs = -np.asarray(g0, dtype=np.float64).copy()
+        g_cols: list[NDArray] = []
+        balance: list[NDArray] = []
+        free: list[ElasticBody] = []
+        for body in self.bodies:
+            eb = e.get(body.name)
+            s = body.solver
+            if eb is not None and m:
+                w += s.compliance(eb)
+                rhs -= eb @ self.own_response(body)
+            if s.free_body:
+                free.append(body)
+                phi = s.placing_modes
+                g_cols.append(eb @ phi if eb is not None else np.zeros((m, phi.shape[1])))
+                balance.append(-(phi.T @ body.loads))
+        return ContactSystem(
+            w=w,
+            g=np.hstack(g_cols) if g_cols else np.zeros((m, 0)),
+            rhs=rhs,
+            c=np.concatenate(balance) if balance else np.zeros(0),
+            free=tuple(b.name for b in free),
+            load_scale=max((float(np.linalg.norm(b.loads)) for b in free), default=0.0),
+        )
+
+    def states(
+        self, e: dict[str, sp.csr_matrix], lam: NDArray[np.float64], a: NDArray[np.float64]
+    ) -> dict[str, BodyState]:
+        """Every body's state under contact forces ``lam`` and rigid-mode amplitudes ``a``."""
+        m = lam.size
+        states = {}
+        k = 0
+        for body in self.bodies:
+            eb = e.get(body.name)
+            forces = eb.T @ lam if eb is not None and m else np.zeros(body.mesh.n_dofs)
+            rigid = np.zeros(0)
+            if body.solver.free_body:
+                r = body.solver.placing_modes.shape[1]
+                rigid = np.zeros(6)
+                rigid[:r] = a[k : k + r]
+                k += r
+            states[body.name] = self.state(body, forces, rigid)
+        return states
+
+    def solve(
+        self, e: dict[str, sp.csr_matrix], g0: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], dict[str, BodyState]]:
+        """Contact forces closing every row, and every body's state under them.
+
+        Parameters
+        ----------
+        e : dict of str to sparse matrix
+            Each body's part ``E_b`` (m x n_dofs_b) of the rows.
+        g0 : ndarray, shape (m,)
+            Reference gaps of the rows.
+
+        Returns
+        -------
+        lam : ndarray, shape (m,)
+            Normal contact forces (N), positive pushing the bodies apart.
+        states : dict of str to BodyState
+            Every body's displacement and reactions.
+
+        Raises
+        ------
+        ContactError
+            When the contacts do not hold a free body whose loads are out of balance.
+        """
+        with fem.dense_threads(g0.size):
+            sys_ = self.system(e, g0)
+            lam, a = _saddle(sys_.w, sys_.g, sys_.rhs, sys_.c, list(sys_.free), sys_.load_scale)
+        return lam, self.states(e, lam, a)
+
+    def solve_unilateral(
+        self,
+        e: dict[str, sp.csr_matrix],
+        g0: NDArray[np.float64],
+        tol: NDArray[np.float64],
+        start: NDArray[np.float64] | None = None,
+    ) -> tuple[LcpResult, dict[str, BodyState]]:
+        """Contact forces of candidate rows that may open: the frictionless LCP.
+
+        Each row either closes with a force pushing the bodies apart or stays open with
+        a linearised gap of at least ``-tol`` (:func:`contact.solver.lcp.solve_lcp`).
+
+        Parameters
+        ----------
+        e, g0
+            As for :meth:`solve`.
+        tol : ndarray, shape (m,)
+            Gap tolerance of each row (m).
+        start : ndarray, shape (m,), optional
+            Forces to start from (the last ones of a set that grew).
+
+        Returns
+        -------
+        result : LcpResult
+        states : dict of str to BodyState
+
+        Raises
+        ------
+        ContactError
+            When the contacts do not hold a free body whose loads are out of balance.
+        """
+        with fem.dense_threads(g0.size):  # small dense work: one BLAS thread
+            sys_ = self.system(e, g0)
+        try:  # solve_lcp limits its own threads
+            res = solve_lcp(
+                sys_.w,
+                sys_.g,
+                sys_.rhs,
+                sys_.c,
+                tol=tol,
+                start=start,
+                load_scale=sys_.load_scale,
+            )
+        except fem.LoadError:
+            raise ContactError(_unheld(list(sys_.free))) from None
+        return res, self.states(e, res.lam, res.a)
+
+
+def _saddle(
+    w: NDArray, g: NDArray, rhs: NDArray, c: NDArray, free: list[str], load_scale: float
+) -> tuple[NDArray, NDArray]:
+    """Solve ``[[W, G], [G^T, 0]] [lam; a] = [rhs; c]`` (see :func:`fem.statics.solve_saddle`)."""
+    try:
+        return solve_saddle(w, g, rhs, c, load_scale)
+    except fem.LoadError:
+        raise ContactError(_unheld(free)) from None
+
+
+def _unheld(free: list[str]) -> str:
+    return (
+        f"nothing holds {', '.join(free)}: the contacts do not hold it in every "
+        "direction and its loads are out of balance in the free ones"
+    )

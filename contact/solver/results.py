@@ -1,0 +1,167 @@
+"""What a contact solve returns: the state of every body and the history of the iteration."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["ContactResult", "FrameResult", "IterationRecord"]
+
+
+@dataclass(frozen=True)
+class IterationRecord:
+    """One iteration of a contact solve.
+
+    Attributes
+    ----------
+    iteration : int
+        1-based.
+    n_contacts : int
+        Constraints active in this iteration's solve (contact space: the rows it
+        closed, of its candidates).
+    added, released : int
+        Contacts added (penetrating, or renewed after sliding off their facet) and
+        released (pulling) after it; contact space: rows added after it, and rows its
+        unilateral solve opened that the previous one had closed.
+    max_change : float
+        Largest change of a nodal displacement since the previous iteration (m).
+    max_penetration : float
+        Deepest penetration of a free node after the solve (m, >= 0).
+    total_force : ndarray, shape (3,)
+        Sum of the contact forces on the body (N); for several bodies, on the first one
+        (the ball).
+    normal_force : float
+        Sum of the normal contact forces of every contact (N): for a ball squeezed
+        between two plates, twice the squeeze.
+    relaxation : float
+        Relaxation factor applied to the Neumann side's answer (seed loop; 1 otherwise).
+    max_support_force : float
+        Largest support (bone) force magnitude after this iteration (N), 0 if none.
+    """
+
+    iteration: int
+    n_contacts: int
+    added: int
+    released: int
+    max_change: float
+    max_penetration: float
+    total_force: NDArray[np.float64]
+    normal_force: float = 0.0
+    relaxation: float = 1.0
+    max_support_force: float = 0.0
+
+
+@dataclass(frozen=True)
+class ContactResult:
+    """The outcome of a contact solve of one frame.
+
+    Attributes
+    ----------
+    converged : bool
+        The contact set settled (no node to add or release) within the limits.
+    stop_reason : str
+        ``"converged"``, ``"iteration limit"``, ``"cycling"``, ...
+    iterations : int
+        Solves performed.
+    history : tuple of IterationRecord
+        One record per iteration.
+    displacement : ndarray, shape (N, 3)
+        Final displacement of the body.
+    contact_force : ndarray, shape (N, 3)
+        Contact force on each node of the body (N), zero off contact.
+    obstacle_forces : dict of str to ndarray
+        Force the body exerts on each obstacle (N): minus what it receives from it.
+    contact_nodes : ndarray of int
+        Nodes in contact at the end.
+    max_penetration : float
+        Deepest penetration left (m).
+    timings : dict of str to float
+        Seconds spent per phase.
+    """
+
+    converged: bool
+    stop_reason: str
+    iterations: int
+    history: tuple[IterationRecord, ...]
+    displacement: NDArray[np.float64]
+    contact_force: NDArray[np.float64]
+    obstacle_forces: dict[str, NDArray[np.float64]]
+    contact_nodes: NDArray[np.int64]
+    max_penetration: float
+    timings: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def total_contact_force(self) -> NDArray[np.float64]:
+        """Sum of the contact forces on the body (N)."""
+        return self.contact_force.sum(axis=0)
+
+
+@dataclass(frozen=True)
+class FrameResult:
+    """The outcome of the contact solve of one frame, for every body.
+
+    Attributes
+    ----------
+    converged : bool
+        The contacts settled within the limits and no support force passed its limit.
+    stop_reason : str
+        ``"converged"``, ``"iteration limit"``, ``"cycling"``, ``"bone force limit:
+        ..."`` (naming the bone, its force and its limit), ``"penetration left: ..."``
+        (naming the node and the pair), ``"not held: ..."`` (a free body slid off its
+        contacts or was pushed out of them: how far and which way), or the seed loop's
+        ``"diverged"``.
+    algorithm : str
+        ``"contact-space"`` or ``"seed"``.
+    iterations : int
+        Iterations performed (contact-set updates, or loops of seed steps 2 to 5).
+    history : tuple of IterationRecord
+        One record per iteration.
+    displacement : dict of str to ndarray
+        Body name -> ``(N, 3)`` nodal displacements (m).
+    contact_force : dict of str to ndarray
+        Body name -> ``(N, 3)`` contact force on each node (N).
+    obstacle_forces : dict of str to ndarray
+        Plane name -> force the bodies exert on it ``(3,)`` (N).
+    support_forces : dict of str to dict of str to ndarray
+        Body name -> support group (bone) -> force ``(3,)`` the support exerts on the body
+        to hold it (N): what the musculature carries.
+    over_limit : dict of str to tuple of float
+        Support groups whose force magnitude passed its limit: name -> (force, limit).
+    contacts : dict of str to ndarray
+        The active contacts: ``pair`` (name per row), ``node`` (slave node), ``force``
+        (normal force, N, positive pushes apart), ``normal`` ``(m, 3)``.
+    max_penetration : float
+        Deepest penetration of a slave node into its master at the end (m).
+    penetration_ratio : float
+        Largest penetration of a slave node over its local element size (the square
+        root of its tributary area); the solver keeps it under ``gap_tolerance`` when
+        it converges.
+    separation_ratio : float
+        Largest gap of a pushing contact's node at the end over its element size (0 where
+        every pushing node touches): how far the linearised rows have drifted from the
+        surfaces they stand for (see :meth:`contact.solver.iteration._Frame.separation`).
+    timings : dict of str to float
+        Seconds per phase.
+    """
+
+    converged: bool
+    stop_reason: str
+    algorithm: str
+    iterations: int
+    history: tuple[IterationRecord, ...]
+    displacement: dict[str, NDArray[np.float64]]
+    contact_force: dict[str, NDArray[np.float64]]
+    obstacle_forces: dict[str, NDArray[np.float64]]
+    support_forces: dict[str, dict[str, NDArray[np.float64]]]
+    over_limit: dict[str, tuple[float, float]]
+    contacts: dict[str, NDArray]
+    max_penetration: float
+    penetration_ratio: float = 0.0
+    separation_ratio: float = 0.0
+    timings: dict[str, float] = field(default_factory=dict)
+
+    def total_contact_force(self, body: str) -> NDArray[np.float64]:
+        """Sum of the contact forces on one body (N)."""
+        return self.contact_force[body].sum(axis=0)
