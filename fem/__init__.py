@@ -7,7 +7,8 @@ reactions, free bodies, stresses, generators, meshing and IO.
 
 from __future__ import annotations
 
-from .assembly import assemble_stiffness, element_dofs, element_stiffness
+from .assembly import assemble_stiffness, element_stiffness
+from .dofs import element_dofs, node_dofs
 from .eigen3 import eigh3, rotation_svd3
 from .elements import ELEMENTS, HEX8, TET4, WEDGE6, ReferenceElement
 from .errors import (
@@ -18,14 +19,8 @@ from .errors import (
     NoVolumeCellsError,
     SolverError,
 )
-from .generators import (
-    ball_mesh,
-    box_mesh,
-    graded_ball_mesh,
-    hex_to_tet,
-    node_dofs,
-    shell_mesh,
-)
+from .generators import ball_mesh, graded_ball_mesh, shell_mesh
+from .grids import box_mesh, hex_to_tet
 from .io import read_mesh, read_mesh_data, write_mesh
 from .linsolve import available_backends, factorize
 from .loads import (

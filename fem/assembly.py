@@ -1,4 +1,9 @@
-"""Vectorised assembly of the linear elastic stiffness matrix."""
+"""Vectorised assembly of the linear elastic stiffness matrix.
+
+One einsum per element type gives the elements' 3x3 node-pair blocks; a bincount scatter
+sums them over the node-pair pattern. ``element_dofs`` and ``lame_fields`` are
+re-exported here from :mod:`fem.dofs` and :mod:`fem.material`, where they live.
+"""
 
 from __future__ import annotations
 
@@ -8,10 +13,12 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
+from .dofs import element_dofs
 from .elements import ELEMENTS, ReferenceElement
 from .mapping import gradients
-from .material import LinearElastic, materials_by_region
+from .material import LinearElastic, lame_fields
 from .mesh import Mesh
+from .nodalpressure import nodal_pressure_correction
 
 __all__ = [
     "assemble_stiffness",
@@ -23,11 +30,6 @@ __all__ = [
 
 #: Elements processed at once; bounds the temporaries to a few hundred MB.
 CHUNK = 100_000
-
-
-def element_dofs(conn: NDArray[np.int64]) -> NDArray[np.int64]:
-    """Global DOFs of each element, node-major: ``(M, k) -> (M, 3k)``."""
-    return (3 * conn[:, :, None] + np.arange(3)).reshape(len(conn), -1)
 
 
 def element_blocks(
@@ -97,21 +99,6 @@ def element_stiffness(
     return kb.transpose(0, 1, 3, 2, 4).reshape(m, 3 * n, 3 * n)
 
 
-def lame_fields(
-    mesh: Mesh, materials: LinearElastic | Mapping[int, LinearElastic]
-) -> dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]]:
-    """Per-cell Lame parameters ``(lam, mu)`` for every cell block."""
-    mats = materials_by_region(materials, mesh.region_ids)
-    ids = np.array(sorted(mats))
-    lam_t = np.array([mats[int(r)].lame[0] for r in ids])
-    mu_t = np.array([mats[int(r)].lame[1] for r in ids])
-    out = {}
-    for kind, reg in mesh.regions.items():
-        pos = np.searchsorted(ids, reg)
-        out[kind] = (lam_t[pos], mu_t[pos])
-    return out
-
-
 def assemble_stiffness(
     mesh: Mesh,
     materials: LinearElastic | Mapping[int, LinearElastic],
@@ -179,7 +166,5 @@ def assemble_stiffness(
         (blocks.reshape(-1, 3, 3), pairs % n_nodes, indptr), shape=(mesh.n_dofs, mesh.n_dofs)
     )
     if nodal_pressure and "tetra" in mesh.cells:
-        from .nodalpressure import nodal_pressure_correction  # it builds on this module
-
         return (bsr.tocsr() + nodal_pressure_correction(mesh, materials)).tocsr()
     return bsr.tocsr()

@@ -3,7 +3,7 @@
 Node orderings follow VTK/meshio for ``tetra`` and ``hexahedron``. For ``wedge`` the
 triangle ``(0, 1, 2)`` is the bottom face and ``(3, 4, 5)`` the top face, with node
 ``i + 3`` above node ``i`` and the bottom triangle counter-clockwise seen from the top
-(positive Jacobian with the shape functions below). This is VTK's own wedge (measured
+(positive Jacobian with the shape functions below). This is VTK's own wedge (checked
 with VTK 9.7: positive cell volumes, the same outward faces); meshio 5.3 swaps wedge
 nodes 1-2 and 4-5 when it reads and writes VTK files, which :mod:`fem.io` undoes.
 

@@ -12,7 +12,7 @@ or ``"CellEntityIds"``).
 Files are written atomically: to a hidden temporary file in the target directory, then
 :func:`os.replace`, so a failed write never leaves a half-written or clobbered file.
 
-Wedge orientation, measured with VTK 9.7.2 (pyvista 0.49.1) and meshio 5.3.5: VTK's linear
+Wedge orientation, checked with VTK 9.7.2 (pyvista 0.49.1) and meshio 5.3.5: VTK's linear
 wedge (cell type 13) winds exactly like our WEDGE6. The unit prism ``(0,0,0) (1,0,0)
 (0,1,0)`` below ``+z`` gets volume ``+0.5`` from ``compute_cell_sizes``, from
 ``cell_quality("volume")`` (verdict) and from the determinant of ``vtkWedge``'s own

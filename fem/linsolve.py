@@ -34,9 +34,8 @@ REGULAR_RESIDUAL = 1e-6
 #: ``_Pardiso.solve_marked``): 4 M values, 32 MB.
 PARTIAL_WORK = 4_000_000
 #: Most columns of one partial solve call. The work arrays are fresh memory for each
-#: factorisation, and wide ones cost page faults (in PARDISO too) on their first call: the
-#: first set of the 83k-DOF Hertz frame took 25-134 ms of partial solves in chunks of
-#: 48-118 columns (capped by ``PARTIAL_WORK`` alone), 17-19 ms in chunks of 64.
+#: factorisation, and wide ones cost page faults (in PARDISO too) on their first call:
+#: narrow chunks are several times faster on a large body's first contact set.
 PARTIAL_COLUMNS = 64
 
 

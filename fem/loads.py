@@ -1,4 +1,4 @@
-"""Load vectors of seed equation (4): body force, surface pressure, point forces, initial stress.
+"""Load vectors: body force, surface pressure, point forces, initial stress.
 
 Every function returns a global load vector of shape ``(3 N,)`` in node-major DOF order;
 add them up to form ``R``.

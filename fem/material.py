@@ -10,8 +10,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .errors import MaterialError
+from .mesh import Mesh
 
-__all__ = ["LinearElastic", "elasticity_matrix", "lame", "materials_by_region"]
+__all__ = [
+    "LinearElastic",
+    "elasticity_matrix",
+    "lame",
+    "lame_fields",
+    "materials_by_region",
+]
 
 
 def lame(E: float, nu: float) -> tuple[float, float]:
@@ -115,4 +122,19 @@ def materials_by_region(
         if not isinstance(m, LinearElastic):
             raise MaterialError(f"region {r}: expected a LinearElastic, got {type(m).__name__}")
         out[r] = m
+    return out
+
+
+def lame_fields(
+    mesh: Mesh, materials: LinearElastic | Mapping[int, LinearElastic]
+) -> dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]]:
+    """Per-cell Lame parameters ``(lam, mu)`` for every cell block."""
+    mats = materials_by_region(materials, mesh.region_ids)
+    ids = np.array(sorted(mats))
+    lam_t = np.array([mats[int(r)].lame[0] for r in ids])
+    mu_t = np.array([mats[int(r)].lame[1] for r in ids])
+    out = {}
+    for kind, reg in mesh.regions.items():
+        pos = np.searchsorted(ids, reg)
+        out[kind] = (lam_t[pos], mu_t[pos])
     return out

@@ -28,8 +28,8 @@ def bounding_box(points: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.flo
     """Lower and upper corners ``(3,)`` of the box around ``points`` ``(n, 3)``.
 
     ``points.min(axis=0)`` reduces across rows three values wide, which numpy does about
-    fifteen times slower than along a contiguous row (0.63 against 0.04 ms for 11,000
-    points): the coordinates are transposed to rows first. Contact measures the boxes of
+    fifteen times slower than along a contiguous row: the coordinates are transposed to
+    rows first. Contact measures the boxes of
     its moved surfaces at every update.
     """
     x = np.asarray(points, dtype=np.float64)

@@ -1,6 +1,6 @@
 """Tetrahedral meshing of closed triangle surfaces with pytetwild (fTetWild).
 
-Measured with pytetwild 0.4.2: fTetWild keeps what the surface's winding number marks as
+With pytetwild 0.4.2, fTetWild keeps what the surface's winding number marks as
 inside. A closed outer surface plus a closed inner surface whose triangles face INWARD (the
 reverse of the outer one) gives a hollow body: the inner region is a hole. Had the inner
 surface the same orientation as the outer one the result would be solid throughout. Open

@@ -2,8 +2,8 @@
 
 A linear tetrahedron's strain is constant, so its volumetric strain cannot be relaxed
 inside the element as a brick's mean dilatation relaxes it (B-bar): as Poisson's ratio
-nears 1/2 a tetrahedral mesh locks (on Lame's thick sphere, 3 tetrahedra through the wall:
-7 % too stiff at nu 0.45, 16 % at 0.49, 52 % at 0.499). Bonet and Burton's element (1998,
+nears 1/2 a tetrahedral mesh locks (on Lame's thick sphere with three tetrahedra through
+the wall, half as stiff again as it should be at nu 0.499). Bonet and Burton's element (1998,
 "A simple average nodal pressure tetrahedral element for incompressible and nearly
 incompressible dynamic explicit applications") keeps each tetrahedron's deviatoric energy
 and takes the volumetric energy at the nodes instead, from the volume-weighted average of
@@ -32,10 +32,10 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
-from .assembly import element_dofs, lame_fields
+from .dofs import element_dofs
 from .elements import ELEMENTS
 from .mapping import gradients
-from .material import LinearElastic
+from .material import LinearElastic, lame_fields
 from .mesh import Mesh
 
 __all__ = ["nodal_dilatation", "nodal_pressure_correction"]

@@ -1,7 +1,7 @@
 """Conversion between :class:`~fem.mesh.Mesh` and ``pyvista.UnstructuredGrid``.
 
 pyvista is imported lazily, on the first conversion. VTK's linear wedge winds like our
-WEDGE6 (measured with VTK 9.7.2: a wedge with its bottom triangle counter-clockwise seen
+WEDGE6 (checked with VTK 9.7.2: a wedge with its bottom triangle counter-clockwise seen
 from the top has positive volume in ``compute_cell_sizes`` and ``cell_quality``; see
 :mod:`fem.io`), so connectivity passes through unchanged for every cell type.
 """

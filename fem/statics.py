@@ -1,14 +1,14 @@
-"""The partitioned static solve of seed equations (6) to (8), and free bodies.
+"""The partitioned static solve, and free bodies.
 
 Given prescribed DOFs ``k`` with values ``Uk``, the system ``K U = R`` splits into
+(Gourret, Magnenat-Thalmann and Thalmann 1989, equations (6) to (8))
 
     K11 Uu = Rk - K12 Uk        (7)
     Ru     = K21 Uu + K22 Uk    (8)
 
 Only ``K11`` is factored, once. Extra prescribed DOFs (the contact nodes of an iteration)
-are imposed on top of that factorisation through a small dense Schur complement
-``S = E K11^-1 E^T`` on them: the result is exactly that of re-partitioning and
-re-factoring, at the cost of one back-solve per extra DOF.
+are imposed on top of that factorisation through the small dense Schur complement of
+:mod:`fem.saddle`: exactly the result of re-partitioning and re-factoring.
 
 A body with no prescribed DOF is free: its stiffness has six rigid-body modes. Its
 pseudo-inverse is applied exactly: a load is projected onto the balanced ones, solved on a
@@ -20,90 +20,37 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable
 from dataclasses import dataclass
-from itertools import pairwise
 
 import numpy as np
-import scipy.linalg as sla
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import LoadError, SolverError
+from .errors import SolverError
 from .linsolve import Factorization, factorize, resolve_backend
+from .saddle import (
+    ConstraintRows,
+    check_balance,
+    constraint_matrix,
+    determinate_support,
+    free_columns,
+    rigid_body_modes,
+    solve_saddle,
+    spd_solve,
+)
 
 __all__ = [
+    "MARK_LIMIT",
     "StaticSolution",
     "StaticSolver",
     "check_balance",
-    "cholesky_or_none",
-    "held_modes",
     "rigid_body_modes",
-    "solve_saddle",
-    "solve_saddle_with",
 ]
 
 log = logging.getLogger(__name__)
 
-#: Columns of back-solves done at once when building a Schur complement.
-BLOCK = 256
 #: Marked DOFs at most (:meth:`StaticSolver.mark`): the factor's dense trailing block.
 MARK_LIMIT = 2400
-#: Constraint rows whose mutual compliance is kept (a dense square of this size at most).
-ROW_CACHE = 8192
-#: Rigid modes whose singular value in the constraint matrix is below this fraction of the
-#: largest are taken as not held (see :func:`solve_saddle`).
-RANK_TOL = 1e-8
-
-
-def rigid_body_modes(points: ArrayLike) -> NDArray[np.float64]:
-    """Orthonormal basis of the six rigid-body displacement modes.
-
-    Parameters
-    ----------
-    points : array_like, shape (N, 3)
-
-    Returns
-    -------
-    ndarray, shape (3N, 6)
-        Columns span the three translations and three infinitesimal rotations about the
-        centroid; orthonormal.
-    """
-    x = np.asarray(points, dtype=np.float64)
-    n = len(x)
-    r = x - x.mean(axis=0)
-    phi = np.zeros((n, 3, 6))
-    for i in range(3):
-        phi[:, i, i] = 1.0
-    # rotation about axis a: u = e_a x r
-    phi[:, 1, 3], phi[:, 2, 3] = -r[:, 2], r[:, 1]
-    phi[:, 0, 4], phi[:, 2, 4] = r[:, 2], -r[:, 0]
-    phi[:, 0, 5], phi[:, 1, 5] = -r[:, 1], r[:, 0]
-    q, _ = np.linalg.qr(phi.reshape(3 * n, 6))
-    return q
-
-
-def check_balance(f: NDArray[np.float64], points: ArrayLike, rtol: float = 1e-8) -> None:
-    """Raise :class:`LoadError` if nodal forces are not in balance.
-
-    The resultant force and the moment about the centroid must both vanish to ``rtol``
-    relative to the total magnitude of the forces (and that times the body's size).
-    """
-    x = np.asarray(points, dtype=np.float64)
-    fv = np.asarray(f, dtype=np.float64).reshape(-1, 3)
-    r = x - x.mean(axis=0)
-    force = fv.sum(axis=0)
-    moment = np.cross(r, fv).sum(axis=0)
-    scale = np.linalg.norm(fv, axis=1).sum()
-    size = max(float(np.ptp(x, axis=0).max()), 1e-300)
-    if scale == 0.0:
-        return
-    if np.linalg.norm(force) > rtol * scale or np.linalg.norm(moment) > rtol * scale * size:
-        raise LoadError(
-            "loads on a free body are not in balance: resultant force "
-            f"[{force[0]:.6g}, {force[1]:.6g}, {force[2]:.6g}] N, moment about the centroid "
-            f"[{moment[0]:.6g}, {moment[1]:.6g}, {moment[2]:.6g}] N m"
-        )
 
 
 @dataclass(frozen=True)
@@ -208,12 +155,7 @@ class StaticSolver:
             self.modes = rigid_body_modes(self.points)
             # the first three columns span the translations (QR keeps leading spans)
             self.placing_modes = self.modes[:, :3] if hold_rotation else self.modes
-            # six DOFs spanning the rigid modes best: a statically determinate support
-            _, _, piv = sla.qr(self.modes.T, mode="economic", pivoting=True)
-            self._support = np.sort(piv[:6])
-            keep = np.ones(n, dtype=bool)
-            keep[self._support] = False
-            self._inner = np.flatnonzero(keep)
+            self._support, self._inner = determinate_support(self.modes)
             self._to_factor = k[self._inner][:, self._inner]
             # row of the factored matrix of each free DOF (-1: a support DOF)
             self._frow = np.full(n, -1, dtype=np.int64)
@@ -402,151 +344,47 @@ class StaticSolver:
 
     # --- constraints -----------------------------------------------------------------
 
-    def _constraint_matrix(self, extra: ArrayLike | sp.spmatrix) -> sp.csr_matrix:
-        if sp.issparse(extra):
-            e = sp.csr_matrix(extra, dtype=np.float64)
-            if e.shape[1] != self.n:
-                raise SolverError(f"constraint matrix must have {self.n} columns, got {e.shape}")
-            return e
-        dofs = np.asarray(extra, dtype=np.int64).ravel()
-        if dofs.size and (dofs.min() < 0 or dofs.max() >= self.n):
-            raise SolverError(f"extra prescribed DOFs must lie in 0..{self.n - 1}")
-        if np.unique(dofs).size != dofs.size:
-            raise SolverError("extra prescribed DOFs repeat a DOF")
-        clash = np.intersect1d(dofs, self.prescribed)
-        if clash.size:
-            raise SolverError(f"extra prescribed DOFs {clash[:5].tolist()} are already prescribed")
-        m = dofs.size
-        return sp.csr_matrix((np.ones(m), (np.arange(m), dofs)), shape=(m, self.n))
-
     def compliance(self, extra: ArrayLike | sp.spmatrix) -> NDArray[np.float64]:
         """The dense compliance ``E K11^-1 E^T`` (free body: ``E K^+ E^T``) of constraints.
 
         ``extra`` is a list of DOFs or a sparse ``(m, n)`` constraint matrix. The
         compliance of every row met is kept: only new rows cost back-solves.
         """
-        e = self._constraint_matrix(extra)
+        e = constraint_matrix(extra, self.n, self.prescribed)
         return self._schur_of(e)[0]
 
     def _schur_of(self, e: sp.csr_matrix) -> tuple[NDArray, NDArray | None]:
-        """Compliance of constraint rows, with solves only for rows not seen before.
+        """Compliance of constraint rows (see :class:`fem.saddle.ConstraintRows`).
 
-        The compliance between two rows depends on those rows alone, so it is kept for
-        every row met so far: a contact set that gains or loses a few nodes costs a few
-        solves, not one per contact DOF. A row on marked DOFs only takes a partial solve
-        (:meth:`mark`); a row off them a full back-solve, whose answer is kept to give
-        its compliance with the rows met later.
+        Also, for a free body, the rows' values ``E Phi`` of the placing rigid modes.
         """
         self.factorize()
-        ef = self._free_columns(e)
-        m = ef.shape[0]
-        # a row's key: its (free) columns and values, as bytes cut from the whole arrays
-        ind = ef.indices.astype(np.int64).tobytes()
-        dat = ef.data.tobytes()
-        ptr = (8 * ef.indptr).tolist()
-        keys = [ind[a:b] + dat[a:b] for a, b in pairwise(ptr)]
-        new = list(dict.fromkeys(k for k in keys if k not in self._row_index))
-        if new:
-            if len(self._row_index) + len(new) > ROW_CACHE:
-                self._reset_rows()
-                new = list(dict.fromkeys(keys))
-            if len(new) == m:  # every row new and different: all of them, in order
-                rows = ef
-            else:
-                first = {k: i for i, k in reversed(list(enumerate(keys)))}
-                rows = ef[[first[k] for k in new]]
-            for j in range(0, rows.shape[0], BLOCK):
-                self._add_rows(rows[j : j + BLOCK])
-            for k in new:
-                self._row_index[k] = len(self._row_index)
-        idx = np.array([self._row_index[k] for k in keys], dtype=np.int64)
-        s = self._gram[np.ix_(idx, idx)]
-        s = 0.5 * (s + s.T)
+        if self._constraints is None:
+            free = self.free_body
+            self._constraints = ConstraintRows(
+                self._counted_inverse,
+                self._partial_solve,
+                self._frow,
+                self._fact.marked,
+                self._to_factor.shape[0],
+                modes=self.modes if free else None,
+                j_phi=self._j_phi if free else None,
+            )
+        s = self._constraints.compliance(free_columns(e, self._pos, self.free.size))
         e_phi = (e @ self.placing_modes) if self.free_body else None
         return s, e_phi
 
-    def _free_columns(self, e: sp.csr_matrix) -> sp.csr_matrix:
-        """``e``'s columns of the free DOFs (in order), indices sorted."""
-        if self.free.size == self.n:  # a copy: the rows kept share no array with e
-            return e.sorted_indices() if not e.has_sorted_indices else e.copy()
-        pos = self._pos[e.indices]  # increasing with the DOF: the order is kept
-        ef = _csr_entries(e, pos >= 0, pos, self.free.size)
-        if not e.has_sorted_indices:
-            ef.sort_indices()
-        return ef
+    def _counted_inverse(self, r: NDArray[np.float64]) -> NDArray[np.float64]:
+        """:meth:`apply_inverse` of columns ``(n_free, k)``, counted as back-solves."""
+        z = self.apply_inverse(r)
+        self.n_back_solves += r.shape[1]
+        return z
 
-    def _on_marks(self, rows: sp.csr_matrix) -> tuple[sp.csr_matrix, NDArray[np.bool_]]:
-        """Rows (over the free DOFs) on the marked DOFs' numbering, and which lie on them.
-
-        A free body's support DOFs count as marked: its inner inverse is zero there.
-        """
-        marks = self._fact.marked
-        k = rows.shape[0]
-        if not marks.size:
-            return sp.csr_matrix((k, 0)), np.zeros(k, dtype=bool)
-        where = np.full(self._to_factor.shape[0], -1, dtype=np.int64)
-        where[marks] = np.arange(marks.size)
-        row = np.repeat(np.arange(k), np.diff(rows.indptr))
-        frow = self._frow[rows.indices]
-        sup = frow < 0
-        col = where[np.where(sup, 0, frow)]
-        off = ~sup & (col < 0)
-        inside = np.ones(k, dtype=bool)
-        inside[row[off]] = False
-        return _csr_entries(rows, ~sup & ~off, col, marks.size), inside
-
-    def _add_rows(self, rows: sp.csr_matrix) -> None:
-        """Keep new rows and their compliance with every kept row (and each other)."""
-        old = 0 if self._rows is None else self._rows.shape[0]
-        k = rows.shape[0]
-        rows_m, inside = self._on_marks(rows)
-        self._rows = rows if self._rows is None else sp.vstack([self._rows, rows]).tocsr()
-        self._rows_m = rows_m if self._rows_m is None else sp.vstack([self._rows_m, rows_m]).tocsr()
-        self._inside = np.concatenate([self._inside, inside])
-        total = old + k
-        cross = np.zeros((total, k))
-        out = np.flatnonzero(~inside)
-        if out.size:
-            z = self.apply_inverse(rows[out].T.toarray())  # C r, full
-            self.n_back_solves += out.size
-            cross[:, out] = self._rows @ z
-            self._zout = np.hstack([self._zout, z]) if self._zout.size else z
-            self._out_rows = np.concatenate([self._out_rows, old + out])
-        inn = np.flatnonzero(inside)
-        if inn.size:
-            kept_in = np.flatnonzero(self._inside)
-            part = self._partial_cross(rows[inn], rows_m[inn])  # (total, k_in)
-            cross[np.ix_(kept_in, inn)] = part[kept_in]
-            if self._out_rows.size:
-                # rows off the marks: their kept answers C r give the compliance
-                cross[np.ix_(self._out_rows, inn)] = (rows[inn] @ self._zout).T
-        if self._gram.shape[0] < total:
-            grown = np.zeros((max(total, 2 * self._gram.shape[0]),) * 2)
-            grown[:old, :old] = self._gram[:old, :old]
-            self._gram = grown
-        cols = slice(old, total)
-        self._gram[:total, cols] = cross
-        self._gram[cols, :total] = cross.T
-
-    def _partial_cross(self, rows: sp.csr_matrix, rows_m: sp.csr_matrix) -> NDArray:
-        """Compliance of the kept rows on the marks with ``rows``, from partial solves.
-
-        A held body: ``R K11^-1 r`` needs the solution on the marked DOFs only. A free
-        body: with ``J`` the inverse on its inner DOFs (zero on the support) and ``P =
-        I - Phi Phi^T``, ``r1 P J P r2 = r1 J r2 - a1 b2 - b1 a2 + a1 H a2`` where ``a =
-        Phi^T r``, ``b = (J Phi)^T r`` and ``H = Phi^T J Phi``. Rows of the result for
-        kept rows off the marks are meaningless.
-        """
-        z = self._fact.solve_marked(rows_m.T.toarray())  # type: ignore[attr-defined]
+    def _partial_solve(self, b: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The factor's solve of columns on the marked rows, counted as partial solves."""
+        z = self._fact.solve_marked(b)  # type: ignore[attr-defined]
         self.n_partial_solves += z.shape[1]
-        cross = self._rows_m @ z
-        if self.free_body:
-            phi, jphi = self.modes, self._j_phi()
-            a_all, b_all = self._rows @ phi, self._rows @ jphi
-            a_new, b_new = rows @ phi, rows @ jphi
-            h = phi.T @ jphi
-            cross = cross - a_all @ b_new.T - b_all @ a_new.T + a_all @ h @ a_new.T
-        return cross
+        return z
 
     def _j_phi(self) -> NDArray[np.float64]:
         """``J Phi``: the inner inverse of a free body applied to its rigid modes (kept)."""
@@ -558,13 +396,8 @@ class StaticSolver:
         return self._jphi
 
     def _reset_rows(self) -> None:
-        self._row_index: dict[bytes, int] = {}
-        self._rows: sp.csr_matrix | None = None
-        self._rows_m: sp.csr_matrix | None = None
-        self._inside = np.zeros(0, dtype=bool)
-        self._zout = np.zeros((0, 0))  # C r of the kept rows off the marks
-        self._out_rows = np.zeros(0, dtype=np.int64)
-        self._gram = np.zeros((0, 0))
+        """Forget the constraint rows kept: a new factorisation answers them anew."""
+        self._constraints: ConstraintRows | None = None
 
     # --- the solve -------------------------------------------------------------------
 
@@ -620,7 +453,7 @@ class StaticSolver:
                 check_balance(f, self.points)
             u[self.free] = self.apply_inverse(rf)
         else:
-            e = self._constraint_matrix(extra)
+            e = constraint_matrix(extra, self.n, self.prescribed)
             m = e.shape[0]
             g = np.zeros(m) if extra_values is None else np.asarray(extra_values, float)
             if g.shape != (m,):
@@ -633,12 +466,13 @@ class StaticSolver:
             rhs = ef @ x0 - g
             if self.free_body:
                 phi = self.placing_modes
-                lam, a = _saddle(s, e_phi, rhs, phi.T @ f, float(np.linalg.norm(f)))
+                # [[S, -E Phi], [-(E Phi)^T, 0]] [lam; a] = [rhs; -Phi^T f]
+                lam, a = solve_saddle(s, -e_phi, rhs, -(phi.T @ f), float(np.linalg.norm(f)))
                 u[self.free] = self.apply_inverse(rf - ef.T @ lam) + phi @ a
                 rigid = np.zeros(6)
                 rigid[: a.size] = a
             else:
-                lam = _spd_solve(s, rhs)
+                lam = spd_solve(s, rhs)
                 u[self.free] = self.apply_inverse(rf - ef.T @ lam)
         reactions = np.zeros(n)
         if self.prescribed.size:
@@ -662,134 +496,3 @@ class StaticSolver:
                 f"prescribed values must have shape ({npres},) or ({self.n},), got {v.shape}"
             )
         return v
-
-
-def _csr_entries(
-    e: sp.csr_matrix, keep: NDArray[np.bool_], col: NDArray[np.int64], n_cols: int
-) -> sp.csr_matrix:
-    """The entries ``keep`` of ``e``, in their rows, moved to columns ``col`` (of ``n_cols``)."""
-    m = e.shape[0]
-    row = np.repeat(np.arange(m), np.diff(e.indptr))
-    ptr = np.concatenate([[0], np.cumsum(np.bincount(row[keep], minlength=m))])
-    return sp.csr_matrix((e.data[keep], col[keep], ptr), shape=(m, n_cols))
-
-
-def _spd_solve(s: NDArray, rhs: NDArray) -> NDArray:
-    if s.size == 0:
-        return np.zeros(0)
-    try:
-        c = sla.cho_factor(s)
-        return sla.cho_solve(c, rhs)
-    except sla.LinAlgError as exc:
-        raise SolverError(
-            "the extra constraints are dependent (their compliance is singular): a DOF or "
-            "constraint is repeated"
-        ) from exc
-
-
-def _saddle(
-    s: NDArray, e_phi: NDArray, rhs: NDArray, phi_f: NDArray, load_scale: float = 0.0
-) -> tuple[NDArray, NDArray]:
-    """Solve ``[[S, -EP], [-EP^T, 0]] [lam; a] = [rhs; -P^T f]`` for a free body."""
-    return solve_saddle(s, -e_phi, rhs, -phi_f, load_scale)
-
-
-def solve_saddle(
-    w: NDArray, g: NDArray, rhs: NDArray, c: NDArray, load_scale: float = 0.0
-) -> tuple[NDArray, NDArray]:
-    """Solve ``[[W, G], [G^T, 0]] [lam; a] = [rhs; c]``: constraint forces and rigid modes.
-
-    ``W`` (m x m) is the compliance of the constraints, ``G`` (m x r) the constraints'
-    values of the rigid modes, ``c`` minus the loads in the modes. Rigid modes the
-    constraints do not hold (singular values of ``G`` below :data:`RANK_TOL` of the
-    largest: a frictionless sphere's spin, a ball between two parallel plates sliding
-    sideways) are left out with ``a = 0`` in them, once the loads are checked to be in
-    balance in them. ``W`` is factored by Cholesky and the amplitudes solved from the
-    small Schur complement ``G^T W^-1 G``, so that weakly held modes stay well posed.
-
-    ``load_scale`` is the size of the loads (a norm of the load vector): the balance in
-    the free modes is checked to ``1e-8`` of it (and of ``c``).
-
-    Raises
-    ------
-    LoadError
-        If the loads are out of balance in a mode the constraints do not hold.
-    """
-    m, r = g.shape
-    v1 = held_modes(g, c, load_scale)
-    if m == 0:
-        return np.zeros(0), np.zeros(r)
-    cw = cholesky_or_none(w)
-    if cw is None:
-        # dependent rows (a node against two facets meeting at it): least squares
-        g1, c1 = g @ v1, v1.T @ c
-        k = g1.shape[1]
-        big = np.block([[w, g1], [g1.T, np.zeros((k, k))]])
-        # complete orthogonal factorisation (QR with column pivoting): the same minimum
-        # norm solution as the SVD's, in about half its time (290 rows: 5 against 11 ms)
-        sol, *_ = sla.lstsq(
-            big, np.concatenate([rhs, c1]), cond=1e-12, lapack_driver="gelsy", check_finite=False
-        )
-        return sol[:m], v1 @ sol[m:]
-    return solve_saddle_with(lambda v: sla.cho_solve(cw, v), g, rhs, c, v1)
-
-
-def cholesky_or_none(w: NDArray, rtol: float = 1e-12) -> tuple | None:
-    """``scipy.linalg.cho_factor`` of ``w``, or None where its rows are dependent.
-
-    Dependent rows (the same constraint twice) make ``w`` singular; round-off may still
-    let the factorisation through with a pivot of round-off size. A pivot whose square
-    is below ``rtol`` times the largest diagonal entry counts as zero.
-    """
-    try:
-        cw = sla.cho_factor(w)
-    except sla.LinAlgError:
-        return None
-    pivots = np.abs(np.diag(cw[0]))
-    if pivots.size and pivots.min() ** 2 < rtol * float(np.abs(np.diag(w)).max()):
-        return None
-    return cw
-
-
-def held_modes(g: NDArray, c: NDArray, load_scale: float = 0.0) -> NDArray:
-    """The rigid modes the constraints hold: an orthonormal basis ``(r, k)`` of them.
-
-    See :func:`solve_saddle`; checks the loads ``c`` are in balance in the others.
-
-    Raises
-    ------
-    LoadError
-        If the loads are out of balance in a mode the constraints do not hold.
-    """
-    m, r = g.shape
-    if not r:
-        return np.zeros((0, 0))
-    sv, vt = (np.linalg.svd(g, full_matrices=False)[1:]) if m else (np.zeros(0), None)
-    held = sv > RANK_TOL * sv.max() if sv.size and sv.max() > 0 else np.zeros(0, bool)
-    v1 = vt[held].T if held.any() else np.zeros((r, 0))
-    if v1.shape[1] == r:  # every mode held: nothing to check
-        return v1
-    v0 = np.linalg.svd(v1.T)[2][v1.shape[1] :].T if v1.shape[1] else np.eye(r)
-    scale = max(float(np.abs(c).max(initial=0.0)), load_scale, 1e-300)
-    if v0.shape[1] and np.abs(v0.T @ c).max() > 1e-8 * scale:
-        raise LoadError(
-            "the constraints do not hold the free body in every direction and the "
-            "loads are not in balance in the free directions"
-        )
-    return v1
-
-
-def solve_saddle_with(
-    w_inv: Callable[[NDArray], NDArray], g: NDArray, rhs: NDArray, c: NDArray, v1: NDArray
-) -> tuple[NDArray, NDArray]:
-    """:func:`solve_saddle` with ``W^-1`` applied by ``w_inv`` and the held modes ``v1``.
-
-    ``w_inv`` takes an ``(m,)`` or ``(m, k)`` array; ``v1`` is :func:`held_modes`'s.
-    """
-    if not v1.shape[1]:
-        return w_inv(rhs), np.zeros(g.shape[1])
-    g1, c1 = g @ v1, v1.T @ c
-    both = w_inv(np.column_stack([rhs, g1]))  # one solve for both
-    lam, wg = both[:, 0], both[:, 1:]
-    b = np.linalg.solve(g1.T @ wg, g1.T @ lam - c1)
-    return lam - wg @ b, v1 @ b

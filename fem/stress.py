@@ -7,10 +7,9 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .assembly import lame_fields
 from .elements import ELEMENTS
 from .mapping import gradients
-from .material import LinearElastic
+from .material import LinearElastic, lame_fields
 from .mesh import Mesh
 from .nodalpressure import nodal_dilatation
 

@@ -2,23 +2,18 @@
 
 OpenBLAS's worker threads spin while they wait for work. Where another process keeps the
 other cores busy, a threaded Cholesky factorisation or product of a few hundred rows then
-takes tens of times longer than on one thread. Measured on two cores with one other busy
-process (the frictionless LCP of :mod:`contact.solver.lcp`, Hertz on a half-space): 400 rows,
-1.0 s threaded against 0.03 s on one thread; 1,024 rows, 1.5 s against 0.08 s; 3,025
-rows, 3.8-4.1 s against 0.8-1.1 s. On an idle machine the threads gain little (3,025
-rows: 0.65 s against 0.71 s), so dense problems below :data:`SMALL_DENSE` rows (every
-contact set met so far) run on one thread. MKL, behind PARDISO's sparse factorisations,
-is left alone: only OpenBLAS is limited.
+takes tens of times longer than on one thread, and on an idle machine the threads gain
+little at that size: dense problems below :data:`SMALL_DENSE` rows (every contact set met
+so far) run on one thread. MKL, behind PARDISO's sparse factorisations, is left alone:
+only OpenBLAS is limited.
 
 The same spinning slows the sparse factorisations themselves: OpenBLAS workers woken by a
-dense product spin for about 0.1 s after it, on the cores MKL PARDISO is factoring on.
-Measured on two cores (a ball of 6,813 DOFs, 673 marked, factored right after a threaded
-400 x 400 product): 0.15-0.17 s against 0.10 s. A contact frame therefore runs all its
-work with OpenBLAS on one thread (:func:`sparse_threads`), and a dense problem of
-:data:`SMALL_DENSE` rows or more inside it gets OpenBLAS's threads back.
+dense product spin on for a while after it, on the cores MKL PARDISO is factoring on. A
+contact frame therefore runs all its work with OpenBLAS on one thread
+(:func:`sparse_threads`), and a dense problem of :data:`SMALL_DENSE` rows or more inside
+it gets OpenBLAS's threads back.
 
-The limit uses threadpoolctl (the BLAS thread control of scikit-learn's maintainers); where
-it finds no OpenBLAS, nothing is limited.
+The limit uses threadpoolctl; where it finds no OpenBLAS, nothing is limited.
 """
 
 from __future__ import annotations
@@ -86,7 +81,7 @@ def sparse_threads() -> Iterator[None]:
 
     For work that mixes sparse factorisations with numpy's dense products (a contact
     frame): OpenBLAS workers left spinning by a product would slow the factorisation
-    that follows by half (see the module's notes). Dense problems of
+    that follows (see the module's notes). Dense problems of
     :data:`SMALL_DENSE` rows or more still get their threads (:func:`dense_threads`).
 
     Examples

@@ -2,19 +2,14 @@
 
 from __future__ import annotations
 
-from .hertz import (
-    HERTZ_MODELS,
+from .contact_patch import (
     ContactPatch,
-    HertzCheck,
     HertzErrors,
-    HertzSolution,
-    effective_modulus,
-    hertz_check,
-    hertz_sphere_on_plane,
     interpolation_excess,
     measure_contact_patch,
     moment_radius,
 )
+from .hertz import HERTZ_MODELS, HertzCheck, hertz_check
 from .hertz_bodies import (
     SCENES,
     HertzBodiesCheck,
@@ -25,6 +20,7 @@ from .hertz_bodies import (
     hertz_scene,
     hertz_two_bodies,
 )
+from .hertz_theory import HertzSolution, effective_modulus, hertz_sphere_on_plane
 from .rigid import solve_rigid_contact
 
 __all__ = [

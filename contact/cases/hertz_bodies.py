@@ -1,7 +1,7 @@
 """Hertz contact of two deformable bodies: a sphere on an elastic block, two spheres.
 
 The analytic side is Hertz's for two elastic bodies of radii ``R1``, ``R2`` (a flat block:
-``R2 = inf``) pressed with force ``F``: the solution of :mod:`contact.cases.hertz` with the
+``R2 = inf``) pressed with force ``F``: that of :mod:`contact.cases.hertz_theory` with the
 effective radius ``1/R = 1/R1 + 1/R2`` and the contact modulus
 ``1/E* = (1 - nu1^2)/E1 + (1 - nu2^2)/E2`` (:func:`hertz_two_bodies`).
 
@@ -28,11 +28,11 @@ equator planes (or the plate and the block's base) approach by ``depth``, giving
 ``a ~ sqrt(R depth)``.
 
 Contact radius and peak pressure are measured from the nodal contact forces of one body
-(:func:`contact.cases.hertz.measure_contact_patch`: the moment radius with the interpolation
-excess removed, and the consistent Hertz-profile fit of the interior forces), by default
-the top sphere's: ``contact_force`` of a body is everything the contact rows put on its
-nodes, as slave and as master. The other body's forces give a second measure; the two
-totals must be equal and opposite (action equals reaction).
+(:func:`contact.cases.contact_patch.measure_contact_patch`: the moment radius with the
+interpolation excess removed, and the consistent Hertz-profile fit of the interior forces),
+by default the top sphere's: ``contact_force`` of a body is everything the contact rows
+put on its nodes, as slave and as master. The other body's forces give a second measure;
+the two totals must be equal and opposite (action equals reaction).
 
 Materials are compressible (``nu = 0.3`` by default): trilinear bricks lock as ``nu``
 approaches 0.5, so the check uses a value where HEX8 is accurate.
@@ -53,8 +53,8 @@ from fem.generators import graded_ball_mesh, graded_spacing, grid_mesh
 
 from ..errors import ContactError
 from ..geometry.plane import Plane
+from ..solver import ContactSettings, solve_frame
 from ..solver.body import ElasticBody
-from ..solver.iteration import ContactSettings, solve_frame
 from ..solver.pairs import ContactPair
 from ..solver.results import FrameResult
 from .hertz import (

@@ -1,13 +1,13 @@
 """Contact of one elastic body with rigid planes: an active set on the contact nodes.
 
-This is the seed's iteration (Fig. 9) where the obstacles are rigid: step 2 repels the
-nodes behind a plane onto it, step 3 solves the body with them prescribed (frictionless:
-their normal displacement only) and reads their reactions from equation (8); a rigid
-obstacle does not deform, so step 5 changes nothing and the loop reduces to updating the
-contact set. Contact memory: a node in contact stays prescribed onto the plane, even where
-a gap would open, until its reaction pulls; then it is released. The extra prescribed DOFs
-are imposed on the body's one factorisation through a Schur complement (fem.StaticSolver):
-nothing is refactored inside the loop.
+This is the iteration of Gourret, Magnenat-Thalmann and Thalmann (1989, Fig. 9) where the
+obstacles are rigid: step 2 repels the nodes behind a plane onto it, step 3 solves the body
+with them prescribed (frictionless: their normal displacement only) and reads their
+reactions from equation (8); a rigid obstacle does not deform, so step 5 changes nothing
+and the loop reduces to updating the contact set. Contact memory: a node in contact stays
+prescribed onto the plane, even where a gap would open, until its reaction pulls; then it
+is released. The extra prescribed DOFs are imposed on the body's one factorisation through
+a Schur complement (fem.StaticSolver): nothing is refactored inside the loop.
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ from ..errors import ContactError
 from ..geometry.plane import Plane
 from ..solver.body import ElasticBody
 from ..solver.results import ContactResult, IterationRecord
+from ..solver.settings import ContactSettings
 from ..solver.zone import slave_zone
 
 __all__ = ["solve_rigid_contact"]
@@ -47,7 +48,7 @@ def solve_rigid_contact(
     planes: Sequence[Plane],
     *,
     max_iterations: int = 50,
-    gap_tolerance: float = 1e-3,
+    gap_tolerance: float = ContactSettings.gap_tolerance,
     force_tolerance: float = 1e-9,
 ) -> ContactResult:
     """Resolve the contact of an elastic body with rigid frictionless planes.

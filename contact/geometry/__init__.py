@@ -2,18 +2,10 @@
 
 from __future__ import annotations
 
+from ..errors import SurfaceError
 from .closestkernels import LEAF, TIE, build_tree, closest_faces, facet_cross, refit
 from .plane import Plane, tributary_areas
-from .surfacequery import (
-    DEGENERATE_TOL,
-    WINDING_THRESHOLD,
-    Closest,
-    SurfaceError,
-    TriangleSurface,
-    closest_on_triangles,
-    degenerate_triangles,
-    surface_of_mesh,
-)
+from .surfacequery import WINDING_THRESHOLD, TriangleSurface
 from .surfaces import (
     check_closed_surface,
     count_pieces,
@@ -21,6 +13,13 @@ from .surfaces import (
     poly_from_arrays,
     self_intersections,
     surface_arrays,
+)
+from .triangles import (
+    DEGENERATE_TOL,
+    Closest,
+    closest_on_triangles,
+    degenerate_triangles,
+    surface_of_mesh,
 )
 
 __all__ = [

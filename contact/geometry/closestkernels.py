@@ -1,17 +1,15 @@
 """Compiled closest-point search on a triangle surface: a bounding-volume hierarchy.
 
 The contact iteration asks for the closest points of a few hundred slave nodes on a
-master surface several times a frame, every time at new coordinates. libigl's AABB tree
-(``igl.AABB``) answered, but was built again for every set of coordinates: on the coarse
-skin (3.8k facets) the build and the Python round trip cost more than the search
-(3-4 ms a query of 380 points against the whole skin; 0.5 ms to build a tree on a
-patch). Here the hierarchy's shape is built once per connectivity (:func:`build_tree`:
-median splits of the facets' centroids along the widest axis, up to :data:`LEAF` facets a
-leaf) and only its boxes are computed again at new coordinates (:func:`refit`, one pass
-from the leaves up); a deformed surface keeps a valid hierarchy, its boxes only overlap
-more. :func:`closest_faces` searches it nearest box first and returns each point's
-closest facet with the barycentric weights of its closest point (Ericson's region test,
-as :func:`contact.geometry.surfacequery.closest_on_triangles`: exactly zero weights for the nodes
+master surface several times a frame, every time at new coordinates. A tree built again
+for every set of coordinates (libigl's AABB tree) costs more than the search itself. Here
+the hierarchy's shape is built once per connectivity (:func:`build_tree`: median splits of
+the facets' centroids along the widest axis, up to :data:`LEAF` facets a leaf) and only
+its boxes are computed again at new coordinates (:func:`refit`, one pass from the leaves
+up); a deformed surface keeps a valid hierarchy, its boxes only overlap more.
+:func:`closest_faces` searches it nearest box first and returns each point's closest facet
+with the barycentric weights of its closest point (Ericson's region test, as
+:func:`contact.geometry.triangles.closest_on_triangles`: exactly zero weights for the nodes
 off an edge or a vertex the point lies on).
 
 :func:`facet_cross` gives the facets' doubled-area vectors at new coordinates (normals and

@@ -1,48 +1,35 @@
 """Closest points and inside tests against a closed triangle surface, vectorised over points.
 
-The geometric queries of the contact iteration ("repel", issue 6): a slave node inside the
+The geometric queries of the contact iteration's step 2 ("repel"): a slave node inside the
 master's closed surface is moved to its closest point on it, remembering the facet and the
-barycentric weights of that point.
-
-:class:`TriangleSurface` wraps the queries, in double precision throughout. libigl
-(`<https://libigl.github.io>`_, MPL-2.0; ``pip install libigl``, wheels of a few MB for
-every platform) was chosen after measuring libigl, fcpw, Open3D, embreex and VTK
-(``python -m benchmarks queries``; see ``benchmarks/results/queries.md``); the closest
-facet is now searched by a compiled hierarchy of our own:
+barycentric weights of that point. :class:`TriangleSurface` wraps the queries, in double
+precision throughout (the libraries compared: ``benchmarks/results/queries.md``):
 
 * closest point: a bounding-volume hierarchy compiled with numba
-  (:mod:`contact.geometry.closestkernels`) finds the closest facet and the barycentric weights of
-  its closest point (Ericson's region test), so that ``point == w @ facet_points`` to
-  rounding and a point on an edge or a vertex has exactly zero weights for the other
-  nodes. Its shape is built once per connectivity; a surface at new coordinates
-  (:meth:`TriangleSurface.moved`, every iteration of a contact frame) refits its boxes
-  only (libigl's AABB tree had to be built again for each: about 3 ms on the coarse skin,
-  more than a search of a few hundred points);
-* inside: the generalised winding number (``igl.FastWindingNumberBVH``, Barnes-Hut with
-  exact near-field sums), ``> 1/2`` inside. It stays right in concave regions, for points
-  a hair from the surface, and where a deformed surface overlaps itself;
+  (:mod:`contact.geometry.closestkernels`) finds the closest facet and the barycentric
+  weights of its closest point (Ericson's region test), so that ``point == w @
+  facet_points`` to rounding and a point on an edge or a vertex has exactly zero weights
+  for the other nodes. Its shape is built once per connectivity; a surface at new
+  coordinates (:meth:`TriangleSurface.moved`, every iteration of a contact frame) refits
+  its boxes only;
+* inside: the generalised winding number (libigl's ``FastWindingNumberBVH``, Barnes-Hut
+  with exact near-field sums), ``> 1/2`` inside. It stays right in concave regions, for
+  points a hair from the surface, and where a deformed surface overlaps itself;
 * normal: the facet normal inside a facet, the angle-weighted pseudo-normal (Baerentzen and
   Aanaes 2005) at an edge or a vertex, so that ``(x - point) . normal < 0`` exactly when
   ``x`` is inside a closed, manifold surface that does not overlap itself. Of facets tied
   at an edge or a vertex, the search takes one whose weights are exactly zero off it.
 
 The winding number's tree is built lazily on the first inside query and again for every
-new set of coordinates (a few ms for the coarse skin's 2.7k facets, 30-80 ms for the fine
-one's 18k). ``closest(x, faces=patch)`` searches a patch only, on a hierarchy of its own,
-with the whole surface's normals. What depends on the triangles alone (closed or not, edge
-neighbours, corners around the nodes, the hierarchy's shape) is kept for the last few
-connectivities, so that a posed hand's skin, a new surface every frame, does not work it
-out again.
-
-:func:`surface_of_mesh` turns a volume mesh's boundary into outward triangles numbered as
-the volume mesh's nodes, so that the weights of a closest point act on volume nodes.
+new set of coordinates. ``closest(x, faces=patch)`` searches a patch only, on a hierarchy
+of its own, with the whole surface's normals. What depends on the triangles alone is kept
+for the last few connectivities (:mod:`contact.geometry.topology`). The functions of
+triangles alone, :func:`surface_of_mesh` among them, live in
+:mod:`contact.geometry.triangles` and are re-exported here.
 """
 
 from __future__ import annotations
 
-from collections import OrderedDict
-from collections.abc import Mapping
-from dataclasses import dataclass
 from functools import cached_property
 from typing import Any
 
@@ -53,6 +40,16 @@ import fem
 
 from ..errors import ContactError, SurfaceError
 from . import closestkernels as kernels
+from .topology import edge_twins, node_corners, pseudo_normals, topology_record
+from .triangles import (
+    DEGENERATE_TOL,
+    Closest,
+    closest_on_triangles,
+    degenerate_triangles,
+    flat_triangles,
+    surface_of_mesh,
+    unit,
+)
 
 __all__ = [
     "DEGENERATE_TOL",
@@ -68,34 +65,6 @@ __all__ = [
 #: A point is inside where the generalised winding number exceeds this.
 WINDING_THRESHOLD = 0.5
 
-#: A triangle whose doubled area is below this times its longest edge squared is degenerate.
-DEGENERATE_TOL = 1e-12
-
-
-#: Topology of recent surfaces by their connectivity: closed or not, edge neighbours, the
-#: corners around each node. A posed hand's skin is a new surface every frame, on the same
-#: triangles; what depends on the triangles alone is worked out once. The posing makes a
-#: surface of every bone each frame too: the record keeps up to ``_TOPOLOGY_KEPT`` surfaces
-#: and ``_TOPOLOGY_TRIANGLES`` triangles in all (about 100 bytes each), the least recently
-#: used dropped first (at 8 surfaces, the hand's and ball's were dropped every frame).
-_TOPOLOGY: OrderedDict[tuple[int, bytes], dict[str, Any]] = OrderedDict()
-_TOPOLOGY_KEPT = 256
-_TOPOLOGY_TRIANGLES = 500_000
-
-
-def _topology(n_points: int, triangles: NDArray[np.int64]) -> dict[str, Any]:
-    """The shared topology record of a connectivity (made empty if new)."""
-    key = (n_points, triangles.tobytes())
-    entry = _TOPOLOGY.pop(key, None)
-    if entry is None:
-        entry = {}
-    _TOPOLOGY[key] = entry
-    held = sum(len(k[1]) for k in _TOPOLOGY) // 24  # triangles (3 int64 each)
-    while len(_TOPOLOGY) > 1 and (len(_TOPOLOGY) > _TOPOLOGY_KEPT or held > _TOPOLOGY_TRIANGLES):
-        old, _ = _TOPOLOGY.popitem(last=False)
-        held -= len(old[1]) // 24
-    return entry
-
 
 def _igl() -> Any:
     try:
@@ -105,160 +74,6 @@ def _igl() -> Any:
             "contact.geometry.surfacequery needs libigl (pip install libigl): " + str(exc)
         ) from None
     return igl
-
-
-@dataclass(frozen=True)
-class Closest:
-    """Closest points on a surface of ``k`` query points.
-
-    Attributes
-    ----------
-    distance : ndarray, shape (k,)
-        Unsigned distance from each query point to the surface.
-    point : ndarray, shape (k, 3)
-        The closest point, ``sum_i bary[:, i] * points[triangles[face, i]]``.
-    face : ndarray of int64, shape (k,)
-        The triangle it lies on (one of them where it lies on a shared edge or vertex).
-    bary : ndarray, shape (k, 3)
-        Barycentric weights of the triangle's three nodes: non-negative, summing to one;
-        exactly zero for the nodes opposite an edge or vertex the point lies on.
-    normal : ndarray, shape (k, 3)
-        Unit outward normal: the facet's inside a facet, the angle-weighted pseudo-normal
-        on an edge or at a vertex; ``(x - point) . normal < 0`` for ``x`` inside.
-    feature : ndarray of int8, shape (k,)
-        Where the point lies: 3 inside a facet, 2 on an edge, 1 at a vertex.
-    """
-
-    distance: NDArray[np.float64]
-    point: NDArray[np.float64]
-    face: NDArray[np.int64]
-    bary: NDArray[np.float64]
-    normal: NDArray[np.float64]
-    feature: NDArray[np.int8]
-
-    def __len__(self) -> int:
-        return len(self.distance)
-
-    def side(self, x: ArrayLike) -> NDArray[np.float64]:
-        """``(x - point) . normal`` of the query points ``x``: negative inside.
-
-        Its sign is the pseudo-normal inside test (exact on a closed, manifold surface that
-        does not overlap itself); its size is the distance only where the closest point
-        lies inside a facet.
-        """
-        return np.einsum("ij,ij->i", np.asarray(x, np.float64) - self.point, self.normal)
-
-
-def closest_on_triangles(
-    x: NDArray[np.float64], a: NDArray[np.float64], b: NDArray[np.float64], c: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """Barycentric weights of the closest point to ``x`` on triangle ``abc``, row by row.
-
-    Ericson's region test (Real-Time Collision Detection, 5.1.5), vectorised: the weights
-    of a point on an edge or at a vertex are exactly zero for the other nodes.
-
-    Parameters
-    ----------
-    x, a, b, c : ndarray, shape (k, 3)
-        Query points and the corners of the triangle each is projected on.
-
-    Returns
-    -------
-    ndarray, shape (k, 3)
-        Weights of ``a``, ``b``, ``c``: non-negative and summing to one.
-    """
-    ab, ac, ap = b - a, c - a, x - a
-    bp, cp = x - b, x - c
-
-    def dot(u: NDArray, v: NDArray) -> NDArray:
-        return np.einsum("ij,ij->i", u, v)
-
-    d1, d2 = dot(ab, ap), dot(ac, ap)
-    d3, d4 = dot(ab, bp), dot(ac, bp)
-    d5, d6 = dot(ab, cp), dot(ac, cp)
-    va, vb, vc = d3 * d6 - d5 * d4, d5 * d2 - d1 * d6, d1 * d4 - d3 * d2
-
-    def ratio(num: NDArray, den: NDArray) -> NDArray:
-        ok = den != 0
-        return np.where(ok, num / np.where(ok, den, 1.0), 0.0)
-
-    w = np.empty((len(x), 3))
-    s = va + vb + vc  # face interior unless a region below claims the point
-    v, t = ratio(vb, s), ratio(vc, s)
-    w[:, 0], w[:, 1], w[:, 2] = 1.0 - v - t, v, t
-
-    def edge(mask: NDArray, i: int, j: int, num: NDArray, den: NDArray) -> None:
-        if mask.any():
-            f = ratio(num[mask], den[mask])
-            w[mask] = 0.0
-            w[mask, i], w[mask, j] = 1.0 - f, f
-
-    def vertex(mask: NDArray, i: int) -> None:
-        if mask.any():
-            w[mask] = 0.0
-            w[mask, i] = 1.0
-
-    # Ericson tests A, B, AB, C, AC, BC in turn and the first match wins: assign in reverse
-    edge((va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0), 1, 2, d4 - d3, (d4 - d3) + (d5 - d6))
-    edge((vb <= 0) & (d2 >= 0) & (d6 <= 0), 0, 2, d2, d2 - d6)
-    vertex((d6 >= 0) & (d5 <= d6), 2)
-    edge((vc <= 0) & (d1 >= 0) & (d3 <= 0), 0, 1, d1, d1 - d3)
-    vertex((d3 >= 0) & (d4 <= d3), 1)
-    vertex((d1 <= 0) & (d2 <= 0), 0)
-    return w
-
-
-def degenerate_triangles(
-    points: NDArray[np.float64], triangles: NDArray[np.int64], tol: float = DEGENERATE_TOL
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
-    """Doubled-area vectors of triangles, their lengths, and which are degenerate.
-
-    A triangle is degenerate where its doubled area is at most ``tol`` times its longest
-    edge squared. The edges are measured only for the few triangles that could be: those
-    whose doubled area is below ``tol`` times the square of the diagonal of the points'
-    bounding box (no edge is longer).
-
-    Returns
-    -------
-    cross : ndarray, shape (m, 3)
-        ``(b - a) x (c - a)``.
-    dbl : ndarray, shape (m,)
-        Its length, twice the area.
-    bad : ndarray of bool, shape (m,)
-    """
-    x = np.ascontiguousarray(points, dtype=np.float64)
-    tri = np.ascontiguousarray(triangles, dtype=np.int64)
-    if tri.ndim != 2 or tri.shape[1] != 3 or x.ndim != 2 or x.shape[1] != 3:
-        raise SurfaceError(
-            f"points (n, 3) and triangles (m, 3) expected, got {x.shape} and {tri.shape}"
-        )
-    if tri.size and (tri.min() < 0 or tri.max() >= len(x)):
-        raise SurfaceError(f"triangles refer to nodes outside 0..{len(x) - 1}")
-    cross, dbl = kernels.facet_cross(x, tri)
-    return cross, dbl, _flat(x, tri, dbl, tol)
-
-
-def _flat(
-    points: NDArray[np.float64], triangles: NDArray[np.int64], dbl: NDArray[np.float64], tol: float
-) -> NDArray[np.bool_]:
-    """Which triangles (doubled areas ``dbl``) are degenerate (see :func:`degenerate_triangles`)."""
-    if not len(triangles):
-        return np.zeros(0, dtype=bool)
-    # the box of every point holds every triangle's box: a bound on their edges
-    lo, hi = fem.bounding_box(points)
-    diag2 = float(np.sum((hi - lo) ** 2))
-    bad = dbl <= tol * diag2
-    suspect = np.flatnonzero(bad)
-    if suspect.size:
-        y = points[triangles[suspect]]
-        edge2 = np.max([((y[:, i] - y[:, (i + 1) % 3]) ** 2).sum(axis=1) for i in range(3)], 0)
-        bad[suspect] = dbl[suspect] <= tol * edge2
-    return bad
-
-
-def _unit(v: NDArray[np.float64]) -> NDArray[np.float64]:
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
-    return v / np.where(n > 0, n, 1.0)
 
 
 class TriangleSurface:
@@ -315,7 +130,7 @@ class TriangleSurface:
         tri.setflags(write=False)
         self.triangles: NDArray[np.int64] = tri
         self._set_points(pts)
-        self._topology = _topology(len(pts), tri)
+        self._topology = topology_record(len(pts), tri)
         # "ok" or the error message, once checked (only "ok" is shared: a message names
         # its surface)
         self._closed: str | None = self._topology.get("closed")
@@ -341,7 +156,7 @@ class TriangleSurface:
         self.points: NDArray[np.float64] = pts
         # the connectivity is checked once (__init__): no index checks at every move
         cross, dbl = kernels.facet_cross(pts, self.triangles)
-        bad = np.flatnonzero(_flat(pts, self.triangles, dbl, DEGENERATE_TOL))
+        bad = np.flatnonzero(flat_triangles(pts, self.triangles, dbl, DEGENERATE_TOL))
         if bad.size:
             x = pts[self.triangles[bad]]
             raise SurfaceError(
@@ -432,7 +247,7 @@ class TriangleSurface:
 
         As :func:`degenerate_triangles`, without computing the areas again.
         """
-        return _flat(self.points, self.triangles, 2.0 * self.areas, tol)
+        return flat_triangles(self.points, self.triangles, 2.0 * self.areas, tol)
 
     def face_nodes(self, face: ArrayLike) -> NDArray[np.int64]:
         """Node indices ``(k, 3)`` of the given faces: the nodes the weights act on."""
@@ -476,36 +291,16 @@ class TriangleSurface:
     @cached_property
     def _twins(self) -> NDArray[np.int64]:
         """``twins[f, i]``: the triangle across the edge of ``f`` opposite its node ``i``."""
-        if "twins" in self._topology:
-            return self._topology["twins"]
-        tri = self.triangles
-        n = np.int64(self.n_points)
-        a = tri[:, [1, 2, 0]].ravel()  # edge opposite node i runs from i+1 to i+2
-        b = tri[:, [2, 0, 1]].ravel()
-        key = a * n + b
-        order = np.argsort(key, kind="stable")
-        srt = key[order]
-        rev = b * n + a
-        pos = np.clip(np.searchsorted(srt, rev), 0, len(srt) - 1)
-        found = srt[pos] == rev
-        twin = np.where(found, order[pos] // 3, np.repeat(np.arange(len(tri)), 3))
-        twin = twin.reshape(-1, 3)
-        twin.setflags(write=False)
-        self._topology["twins"] = twin
-        return twin
+        if "twins" not in self._topology:
+            self._topology["twins"] = edge_twins(self.triangles, self.n_points)
+        return self._topology["twins"]
 
     @cached_property
     def _corners(self) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
         """Corners ``3 f + i`` sorted by node, and where each node's run starts."""
-        if "corners" in self._topology:
-            return self._topology["corners"]
-        flat = self.triangles.ravel()
-        order = np.argsort(flat, kind="stable")
-        start = np.searchsorted(flat[order], np.arange(self.n_points + 1))
-        order.setflags(write=False)
-        start.setflags(write=False)
-        self._topology["corners"] = (order, start)
-        return order, start
+        if "corners" not in self._topology:
+            self._topology["corners"] = node_corners(self.triangles, self.n_points)
+        return self._topology["corners"]
 
     def vertex_normals_at(self, nodes: ArrayLike) -> NDArray[np.float64]:
         """Angle-weighted pseudo-normals ``(k, 3)`` of some nodes only.
@@ -515,20 +310,7 @@ class TriangleSurface:
         nodes = np.asarray(nodes, dtype=np.int64)
         if "vertex_normals" in self.__dict__:
             return self.vertex_normals[nodes]
-        order, start = self._corners
-        counts = start[nodes + 1] - start[nodes]
-        owner = np.repeat(np.arange(nodes.size), counts)
-        first = np.repeat(start[nodes] - np.cumsum(counts) + counts, counts)
-        corner = order[first + np.arange(counts.sum())]
-        f, i = corner // 3, corner % 3
-        x = self.points[self.triangles[f]]
-        k = np.arange(f.size)
-        u = _unit(x[k, (i + 1) % 3] - x[k, i])
-        v = _unit(x[k, (i + 2) % 3] - x[k, i])
-        angle = np.arctan2(np.linalg.norm(np.cross(u, v), axis=1), np.einsum("ij,ij->i", u, v))
-        out = np.zeros((nodes.size, 3))
-        np.add.at(out, owner, angle[:, None] * self.face_normals[f])
-        return _unit(out)
+        return pseudo_normals(self.points, self.triangles, self.face_normals, self._corners, nodes)
 
     @cached_property
     def vertex_normals(self) -> NDArray[np.float64]:
@@ -598,7 +380,7 @@ class TriangleSurface:
         if on_edge.size:
             opposite = np.argmax(zero[on_edge], axis=1)
             twin = self._twins[face[on_edge], opposite]
-            normal[on_edge] = _unit(normal[on_edge] + self.face_normals[twin])
+            normal[on_edge] = unit(normal[on_edge] + self.face_normals[twin])
         at_vertex = np.flatnonzero(feature == 1)
         if at_vertex.size:
             node = self.triangles[face[at_vertex], np.argmax(w[at_vertex], axis=1)]
@@ -654,52 +436,3 @@ class TriangleSurface:
 
     def __repr__(self) -> str:
         return f"TriangleSurface({self.name!r}: {self.n_points} points, {self.n_faces} triangles)"
-
-
-def surface_of_mesh(
-    mesh: fem.Mesh, faces: fem.BoundaryFaces | Mapping[str, ArrayLike] | None = None
-) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """Outward triangles of a volume mesh's boundary, numbered as the mesh's nodes.
-
-    Parameters
-    ----------
-    mesh : fem.Mesh
-    faces : fem.BoundaryFaces or mapping, optional
-        The faces to use (``"triangle"`` ``(F3, 3)`` and/or ``"quad"`` ``(F4, 4)``,
-        counter-clockwise seen from outside), e.g. a ball's outer surface; by default the
-        whole boundary, ``mesh.boundary``.
-
-    Returns
-    -------
-    nodes : ndarray of int64, shape (s,)
-        Sorted volume nodes on these faces.
-    triangles : ndarray of int64, shape (m, 3)
-        Triangles in the volume mesh's node numbers (quads split along their 0-2
-        diagonal into ``(0, 1, 2)`` and ``(0, 2, 3)``): ``TriangleSurface(mesh.points + u,
-        triangles)`` is the deformed surface, and the weights of a closest point act on
-        ``triangles[face]``. For a compact surface use ``mesh.points[nodes]`` with
-        ``np.searchsorted(nodes, triangles)``.
-
-    Raises
-    ------
-    SurfaceError
-        A face kind other than triangle or quad, or node numbers outside the mesh.
-    """
-    if faces is None:
-        faces = mesh.boundary
-    groups = faces.faces if isinstance(faces, fem.BoundaryFaces) else faces
-    parts = [np.zeros((0, 3), dtype=np.int64)]
-    for kind, f in groups.items():
-        f = np.asarray(f, dtype=np.int64)
-        if f.size == 0:
-            continue
-        if f.ndim != 2 or f.shape[1] not in (3, 4):
-            raise SurfaceError(f"mesh surface: {kind} faces must have 3 or 4 nodes, got {f.shape}")
-        if f.shape[1] == 3:
-            parts.append(f)
-        else:
-            parts.append(np.stack([f[:, [0, 1, 2]], f[:, [0, 2, 3]]], axis=1).reshape(-1, 3))
-    tri = np.concatenate(parts)
-    if tri.size and (tri.min() < 0 or tri.max() >= mesh.n_points):
-        raise SurfaceError(f"mesh surface: faces refer to nodes outside 0..{mesh.n_points - 1}")
-    return np.unique(tri), tri

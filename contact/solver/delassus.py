@@ -1,8 +1,9 @@
 """The contact forces of a fixed contact set, solved in contact space.
 
-For a fixed set of contact rows (:class:`contact.solver.pairs.ContactRows`), the fixed point of
-the seed's steps 2 to 5 (every contact closed, both bodies in equilibrium under the
-contact forces) solves a small dense system on the contact forces ``lambda``::
+For a fixed set of contact rows (:class:`contact.solver.rows.ContactRows`), the fixed point
+of steps 3 to 5 of Gourret, Magnenat-Thalmann and Thalmann (1989) (every contact closed,
+every body in equilibrium under the contact forces) solves a small dense system on the
+contact forces ``lambda``::
 
     W lambda + G a = -(g0 + sum_b E_b u0_b)       (every gap closed)
     G^T lambda     = -Phi^T f                     (every free body in balance)
@@ -26,7 +27,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 import fem
-from fem.statics import solve_saddle
+from fem.saddle import solve_saddle
 
 from ..errors import ContactError
 from .body import ElasticBody
@@ -257,7 +258,7 @@ class ContactSpace:
 def _saddle(
     w: NDArray, g: NDArray, rhs: NDArray, c: NDArray, free: list[str], load_scale: float
 ) -> tuple[NDArray, NDArray]:
-    """Solve ``[[W, G], [G^T, 0]] [lam; a] = [rhs; c]`` (see :func:`fem.statics.solve_saddle`)."""
+    """Solve ``[[W, G], [G^T, 0]] [lam; a] = [rhs; c]`` (see :func:`fem.saddle.solve_saddle`)."""
     try:
         return solve_saddle(w, g, rhs, c, load_scale)
     except fem.LoadError:

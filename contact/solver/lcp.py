@@ -11,7 +11,7 @@ which is the optimality condition of the convex quadratic programme
     min  1/2 lambda^T W lambda - rhs^T lambda   s.t.  lambda >= 0,  G^T lambda = c.
 
 It is solved by a primal active-set method in the manner of Lawson and Hanson's NNLS: each
-step solves the equality problem on the rows held (:func:`fem.statics.solve_saddle_with`,
+step solves the equality problem on the rows held (:func:`fem.saddle.solve_saddle_with`,
 bordering the last Cholesky factorisation of their ``W``); a row whose force would pull
 is stopped at zero by a step of the line between the last feasible forces and the new
 ones, and the row whose gap is most negative is taken next (all penetrating rows at once
@@ -31,7 +31,7 @@ import numpy as np
 import scipy.linalg as sla
 from numpy.typing import NDArray
 
-from fem.statics import cholesky_or_none, held_modes, solve_saddle, solve_saddle_with
+from fem.saddle import cholesky_or_none, held_modes, solve_saddle, solve_saddle_with
 from fem.threads import dense_threads
 
 __all__ = ["REFACTOR", "REPEATS", "LcpResult", "solve_lcp"]
@@ -99,7 +99,7 @@ def solve_lcp(
         force start closed. By default the rows that penetrate without forces start
         closed (every row where none does), at zero force: rows that start open do not
         make the first step's equality problem dependent (a node near four planes has
-        four rows on its three DOFs; the hand cup's first set of 287 rows: 4 against 8 ms).
+        four rows on its three DOFs), and the first equality problem is smaller.
     load_scale : float
         Size of the loads, for the balance check of modes nothing holds.
     max_steps : int, optional

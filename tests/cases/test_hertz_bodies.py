@@ -1,4 +1,4 @@
-"""Hertz verification of the contact iteration between two deformable bodies (issue #7).
+"""Hertz verification of the contact iteration between two deformable bodies.
 
 Two quarter-model scenes (see :mod:`contact.cases.hertz_bodies`): a sphere (R1 = 1 m) pressed
 onto an elastic block (20 contact radii wide and deep), and two spheres (R1 = 1 m on
@@ -31,7 +31,7 @@ from contact.cases.hertz_bodies import (
     hertz_two_bodies,
 )
 from contact.errors import ContactError
-from contact.solver.iteration import ContactSettings, solve_frame
+from contact.solver import ContactSettings, solve_frame
 
 RADII = (1.0, 2.0)
 #: Test-sized meshes: cell size at the contact (about 3.4 and 2.7 cells across a).
@@ -205,13 +205,13 @@ def test_one_way_pairs_agree():
 
 def test_seed_loop_converges_with_a_soft_dirichlet_sphere(monkeypatch):
     """One-way pairs, the Dirichlet (top) sphere 100x softer: contact space's answer."""
-    import contact.solver.iteration as iteration
+    import contact.solver.contactset as contactset
 
     near = check("sphere-block", 0.01, both=False)
     # with the rows taken where the nodes are first found inside, as the seed loop takes
     # them (contact space's first set also holds the nodes near contact, linearised at
     # rest: 4e-5 apart)
-    monkeypatch.setattr(iteration, "NEAR", 0.0)
+    monkeypatch.setattr(contactset, "NEAR", 0.0)
     ref = hertz_bodies_check(scene("sphere-block", 0.01, both=False))
     sc = scene("sphere-block", 0.01, both=False)
     chk = hertz_bodies_check(sc, ContactSettings(algorithm="seed", tolerance=1e-9))

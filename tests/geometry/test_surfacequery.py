@@ -305,7 +305,7 @@ def test_vertex_normals_of_some_nodes_equal_the_whole_surface():
 def test_topology_of_a_surface_outlives_many_small_ones(monkeypatch):
     """The topology record keeps a big surface while a posing makes a surface of every bone
     (tens of small ones), and drops the least recently used past its triangle budget."""
-    import contact.geometry.surfacequery as sq
+    import contact.geometry.topology as sq
 
     monkeypatch.setattr(sq, "_TOPOLOGY", type(sq._TOPOLOGY)())
     big = fem.box_mesh((1.0, 1.0, 1.0), (6, 6, 6), element="tetra")
