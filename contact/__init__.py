@@ -1,16 +1,12 @@
-"""contact: the grasp of a deformable ball by a hand (geometry, contact, rig, scenes, CLI).
+"""contact: a hand grasping a deformable ball, solved by finite elements with contact.
 
-Built on :mod:`fem`; the modules arrive with the issues that follow the FE core. The hand
-(issue 4): :func:`load_skeleton` reads a rig (``meshes/hand/rig.toml``) into a
-:class:`Skeleton` with forward kinematics, :func:`skin_surface` and :func:`bone_surfaces`
-build its skin (metaballs) and bones, and :func:`load_hand` reads the shipped meshes.
-Posing (issue 5): :class:`Keyframes` interpolate joint angles (Kochanek-Bartels),
-:func:`pose_hand` (or :class:`HandPoser`) maps the flesh by the JLD operators
-(:class:`JLDMap`) and gives the bone transforms, :func:`auto_flex` bends a joint until a
-point touches an object, :class:`ObjectAssociation` makes an object follow a joint and
-:func:`render_sequence` draws a sequence to PNG frames and a GIF.
-Outputs (issue 8): :class:`ResultsWriter` writes a results folder (summary, VTU/PVD
-series, pictures) of :class:`BodyFrame` bodies with each frame's :func:`verdict`.
+Built on :mod:`fem`, its subpackages follow the data: :mod:`contact.scene` reads a scene,
+:mod:`contact.hand` models and poses the hand (rig, bones, metaball skin, flesh, keyframes,
+JLD mapping: step 1 of a frame), :mod:`contact.geometry` answers closest-point questions
+on planes and triangle surfaces, :mod:`contact.solver` resolves the contact (steps 2 to 5
+of Gourret, Magnenat-Thalmann and Thalmann 1989, in contact space or as their literal
+loop), :mod:`contact.output` writes the results folder, :mod:`contact.cases` holds the
+verification cases. ``python -m contact.grasp SCENE.toml`` runs a scene.
 """
 
 from __future__ import annotations
@@ -29,10 +25,10 @@ from .hand.objects import ObjectAssociation
 from .hand.posing import HandPoser, Pose, pose_hand
 from .hand.shipped import Hand, load_hand
 from .hand.skeleton import Skeleton, load_skeleton
-from .output.writer import BodyFrame, ResultsWriter, verdict
+from .output import BodyFrame, ResultsWriter, verdict
 from .scene.read import Scene, SceneError, load_scene
+from .solver import ContactSettings, solve_frame
 from .solver.body import ElasticBody
-from .solver.iteration import ContactSettings, solve_frame
 from .solver.pairs import ContactPair
 from .solver.results import FrameResult
 

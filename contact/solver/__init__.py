@@ -1,26 +1,26 @@
 """The contact solver: steps 2 to 5 of a frame.
 
-Contact pairs and rows (steps 2 and 4), the contact-space and seed iterations (steps 3
-to 5), the Delassus operator and the unilateral solve.
+Step 2, repel: contact pairs and their penetrations (:mod:`.pairs`); step 4, dispatch:
+the contact rows ``E_b`` (:mod:`.rows`); the contact set they form (:mod:`.contactset`);
+steps 3 to 5 in contact space (:mod:`.contact_space`, with the Delassus operator of
+:mod:`.delassus` and the unilateral solve of :mod:`.lcp`) or as the seed's
+Dirichlet-Neumann loop (:mod:`.seed`); :func:`solve_frame` picks one (:mod:`.iteration`).
 """
 
 from __future__ import annotations
 
 from .body import ElasticBody
+from .contact_space import LCP_TOLERANCE
+from .contactset import ContactSet
 from .delassus import BodyState, ContactSpace, ContactSystem
-from .iteration import ALGORITHMS, LCP_TOLERANCE, RELAXATIONS, ContactSettings, solve_frame
+from .frame import FrameState
+from .iteration import solve_frame
 from .lcp import REFACTOR, REPEATS, LcpResult, solve_lcp
 from .mortar import MortarCoupling, mortar_coupling
-from .pairs import (
-    ContactPair,
-    ContactRows,
-    MortarCandidates,
-    Penetrations,
-    Survey,
-    measure,
-    mortar_candidates,
-)
+from .pairs import ContactPair, Penetrations, Survey, measure
 from .results import ContactResult, FrameResult, IterationRecord
+from .rows import ContactRows, MortarCandidates, mortar_candidates
+from .settings import ALGORITHMS, RELAXATIONS, ContactSettings
 from .zone import APPROACH, RING, master_zone, slave_zone
 
 __all__ = [
@@ -35,11 +35,13 @@ __all__ = [
     "ContactPair",
     "ContactResult",
     "ContactRows",
+    "ContactSet",
     "ContactSettings",
     "ContactSpace",
     "ContactSystem",
     "ElasticBody",
     "FrameResult",
+    "FrameState",
     "IterationRecord",
     "LcpResult",
     "MortarCandidates",

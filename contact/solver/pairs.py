@@ -1,4 +1,4 @@
-"""Contact pairs and their linearised constraint rows.
+"""Contact pairs and their penetrations (step 2, repel).
 
 A contact is a *slave node* of one body against a *master*: a rigid plane, or the
 contact surface of another body (a facet, and the barycentric weights of the slave node's
@@ -9,29 +9,25 @@ master's normal ``n`` is linear in the displacements::
     g = g0 + n . u_slave                               (plane master; its motion is in g0)
 
 with ``g0`` the gap of the reference (posed, undeformed) positions measured along that
-same normal and weights. One such row per contact: its part in each body is a sparse row
-``E_b`` (the slave's ``+n``, the master facet's ``-w_k n``), so that the gap change is
-``sum_b E_b u_b`` and a contact force ``lambda`` (positive pushes the bodies apart) acts
-on body ``b`` as ``E_b^T lambda``: action equals reaction by construction.
+same normal and weights; each contact's row is :class:`contact.solver.rows.ContactRows`.
 
-Finding contacts (step 2 of seed 000, "repel") uses the deformed positions: a slave node
-behind a plane or inside the master's closed surface is penetrating; its row is taken
-from its closest point on the deformed master. :func:`measure` searches only the nodes
-that can be near (a :class:`Survey` of the last measurement bounds how far the others
-still are) and only the master's triangles near them: the iteration measures every pair
-at every update, and a deformed surface's search tree is built anew each time. Rows are
-kept while the node stays in contact (contact memory), so the compliance of a row is
-computed once.
+Finding contacts (step 2 of Gourret, Magnenat-Thalmann and Thalmann 1989, "repel") uses
+the deformed positions: a slave node behind a plane or inside the master's closed surface
+is penetrating; its row is taken from its closest point on the deformed master.
+:func:`measure` searches only the nodes that can be near (a :class:`Survey` of the last
+measurement bounds how far the others still are) and only the master's triangles near
+them: the iteration measures every pair at every update, and a deformed surface's search
+tree is built anew each time. Rows are kept while the node stays in contact (contact
+memory), so the compliance of a row is computed once.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass, field
+from collections.abc import Mapping
+from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-import scipy.sparse as sp
 from numpy.typing import NDArray
 
 import fem
@@ -45,15 +41,7 @@ from ..geometry.surfacequery import (
 )
 from .body import ElasticBody
 
-__all__ = [
-    "ContactPair",
-    "ContactRows",
-    "MortarCandidates",
-    "Penetrations",
-    "Survey",
-    "measure",
-    "mortar_candidates",
-]
+__all__ = ["ContactPair", "Penetrations", "Survey", "measure"]
 
 
 @dataclass(frozen=True)
@@ -184,7 +172,7 @@ class Survey:
 
 def measure(
     pair: ContactPair,
-    u: dict[str, NDArray[np.float64]],
+    u: Mapping[str, NDArray[np.float64]],
     margin: float,
     survey: Survey | None = None,
 ) -> tuple[Penetrations, Survey | None]:
@@ -261,229 +249,10 @@ def measure(
 
 
 def _survey(
-    u: dict[str, NDArray[np.float64]],
+    u: Mapping[str, NDArray[np.float64]],
     nodes: NDArray[np.int64],
     used: NDArray[np.int64],
     pair: ContactPair,
     clear: NDArray[np.float64],
 ) -> Survey:
     return Survey(np.array(u[pair.slave.name][nodes]), np.array(u[pair.master.name][used]), clear)
-
-
-def _pad(a: NDArray, width: int, fill: float) -> NDArray:
-    """``a`` (m, k) padded on the right to ``width`` columns with ``fill``."""
-    if a.shape[1] == width:
-        return a
-    out = np.full((a.shape[0], width), fill, dtype=a.dtype)
-    out[:, : a.shape[1]] = a
-    return out
-
-
-def _stack(a: NDArray, b: NDArray, fill: float) -> NDArray:
-    """Rows of ``a`` then ``b``, padded to the wider of the two."""
-    w = max(a.shape[1], b.shape[1])
-    return np.concatenate([_pad(a, w, fill), _pad(b, w, fill)])
-
-
-@dataclass
-class ContactRows:
-    """The active contacts: one linearised gap row each, kept while the contact holds.
-
-    A row reads ``g = g0 + n . (sum_j a_j u_slave[j] - sum_k b_k u_master[k])``: for a
-    node against a facet, ``a = (1)`` on the node and ``b`` the facet's barycentric
-    weights; against a plane, no ``b``; for a mortar row, ``a`` and ``b`` are the row's
-    mortar integrals over its area. Coefficients are stored padded (node -1, weight 0).
-
-    Attributes
-    ----------
-    pair : ndarray of int, shape (m,)
-        Index of each row's pair.
-    node : ndarray of int, shape (m,)
-        Its slave node (the row's identity with the pair).
-    normal : ndarray, shape (m, 3)
-        The master's normal, pointing into the slave side.
-    g0 : ndarray, shape (m,)
-        Gap of the reference positions along the row (m); a plane's motion included.
-    s_nodes, s_coef : ndarray, shape (m, ks)
-        Slave nodes and coefficients ``a``.
-    m_nodes, m_coef : ndarray, shape (m, km)
-        Master nodes and coefficients ``b``.
-    """
-
-    pair: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, np.int64))
-    node: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, np.int64))
-    normal: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)))
-    g0: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
-    s_nodes: NDArray[np.int64] = field(default_factory=lambda: np.zeros((0, 1), np.int64))
-    s_coef: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 1)))
-    m_nodes: NDArray[np.int64] = field(default_factory=lambda: np.zeros((0, 3), np.int64))
-    m_coef: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)))
-
-    def __len__(self) -> int:
-        return int(self.pair.size)
-
-    @property
-    def keys(self) -> NDArray[np.int64]:
-        """``(m, 2)`` pair and slave node of every row: a contact's identity."""
-        return np.column_stack([self.pair, self.node])
-
-    def select(self, mask: NDArray[np.bool_]) -> ContactRows:
-        """The rows where ``mask`` holds."""
-        return ContactRows(
-            self.pair[mask],
-            self.node[mask],
-            self.normal[mask],
-            self.g0[mask],
-            self.s_nodes[mask],
-            self.s_coef[mask],
-            self.m_nodes[mask],
-            self.m_coef[mask],
-        )
-
-    def joined(self, other: ContactRows) -> ContactRows:
-        """These rows, then ``other``'s."""
-        return ContactRows(
-            np.concatenate([self.pair, other.pair]),
-            np.concatenate([self.node, other.node]),
-            np.concatenate([self.normal, other.normal]),
-            np.concatenate([self.g0, other.g0]),
-            _stack(self.s_nodes, other.s_nodes, -1),
-            _stack(self.s_coef, other.s_coef, 0.0),
-            _stack(self.m_nodes, other.m_nodes, -1),
-            _stack(self.m_coef, other.m_coef, 0.0),
-        )
-
-    def extended(self, pairs: Sequence[ContactPair], index: int, p: Penetrations) -> ContactRows:
-        """These rows and node-to-surface rows for pair ``index`` from measured gaps."""
-        pair = pairs[index]
-        x = pair.slave.mesh.points[p.nodes]
-        k = p.nodes.size
-        if pair.rigid:
-            plane: Plane = pair.master  # type: ignore[assignment]
-            g0 = plane.signed_distance(x)
-            m_nodes, m_coef = np.full((k, 0), -1, np.int64), np.zeros((k, 0))
-        else:
-            xm = pair.master.mesh.points  # type: ignore[union-attr]
-            target = np.einsum("mk,mkj->mj", p.weights, xm[p.facet])
-            g0 = np.einsum("mj,mj->m", x - target, p.normal)
-            m_nodes, m_coef = p.facet, p.weights
-        new = ContactRows(
-            np.full(k, index, np.int64),
-            p.nodes.copy(),
-            p.normal.copy(),
-            g0,
-            p.nodes[:, None].copy(),
-            np.ones((k, 1)),
-            m_nodes,
-            m_coef,
-        )
-        return self.joined(new)
-
-    def matrices(
-        self, pairs: Sequence[ContactPair], bodies: Sequence[ElasticBody]
-    ) -> dict[str, sp.csr_matrix]:
-        """Each body's part ``E_b`` (m x n_dofs_b) of the rows; bodies in no row omitted."""
-        m = len(self)
-        slave_of = np.array([bodies.index(p.slave) for p in pairs], dtype=np.int64)
-        master_of = np.array(
-            [-1 if p.rigid else bodies.index(p.master) for p in pairs],  # type: ignore[arg-type]
-            dtype=np.int64,
-        )
-        s_body = slave_of[self.pair] if m else np.zeros(0, np.int64)
-        m_body = master_of[self.pair] if m else np.zeros(0, np.int64)
-        out: dict[str, sp.csr_matrix] = {}
-        for b, body in enumerate(bodies):
-            n = body.mesh.n_dofs
-            r, c, v = [], [], []
-            for sel_body, nodes, coef, sign in (
-                (s_body, self.s_nodes, self.s_coef, 1.0),
-                (m_body, self.m_nodes, self.m_coef, -1.0),
-            ):
-                rows = np.flatnonzero(sel_body == b)
-                if not rows.size or not nodes.shape[1]:
-                    continue
-                nd, cf = nodes[rows], coef[rows]
-                used = nd >= 0
-                ri = np.broadcast_to(rows[:, None], nd.shape)[used]
-                ni, ci = nd[used], cf[used]
-                nrm = self.normal[ri]  # (q, 3)
-                r.append(np.repeat(ri, 3))
-                c.append((3 * ni[:, None] + np.arange(3)).ravel())
-                v.append((sign * ci[:, None] * nrm).ravel())
-            if r:
-                e = sp.csr_matrix(
-                    (np.concatenate(v), (np.concatenate(r), np.concatenate(c))), shape=(m, n)
-                )
-                e.sum_duplicates()
-                e.eliminate_zeros()
-                out[body.name] = e
-        return out
-
-
-@dataclass(frozen=True)
-class MortarCandidates:
-    """Every mortar row a pair can have, from the reference geometry.
-
-    Attributes
-    ----------
-    rows : ContactRows
-        One row per slave node with an overlap (``g0`` the weighted mean gap, m).
-    e_slave, e_master : scipy.sparse.csr_matrix
-        The rows' parts in the slave's and the master's DOFs: the linearised gaps are
-        ``rows.g0 + e_slave u_s + e_master u_m``.
-    area : ndarray
-        Each row's area (m^2): the nodal pressure is ``lambda / area``.
-    """
-
-    rows: ContactRows
-    e_slave: sp.csr_matrix
-    e_master: sp.csr_matrix
-    area: NDArray[np.float64]
-
-    def gaps(self, u_slave: NDArray[np.float64], u_master: NDArray[np.float64]) -> NDArray:
-        """Linearised weighted gaps of every candidate row at the displacements (m)."""
-        return self.rows.g0 + self.e_slave @ u_slave.ravel() + self.e_master @ u_master.ravel()
-
-
-def _padded(a: sp.csr_matrix, scale: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
-    """Rows of a CSR matrix as padded (nodes, coefficients) arrays, scaled per row."""
-    counts = np.diff(a.indptr)
-    width = int(counts.max(initial=0))
-    nodes = np.full((a.shape[0], width), -1, dtype=np.int64)
-    coef = np.zeros((a.shape[0], width))
-    row = np.repeat(np.arange(a.shape[0]), counts)
-    col = np.arange(a.indices.size) - np.repeat(a.indptr[:-1], counts)
-    nodes[row, col] = a.indices
-    coef[row, col] = a.data * scale[row]
-    return nodes, coef
-
-
-def mortar_candidates(pair: ContactPair, index: int, search: float) -> MortarCandidates:
-    """The mortar rows of a body pair (:mod:`contact.solver.mortar`), one per covered slave node."""
-    from .mortar import mortar_coupling
-
-    slave, master = pair.slave, pair.master
-    assert isinstance(master, ElasticBody)
-    c = mortar_coupling(
-        slave.mesh.points,
-        slave.contact_faces.faces,
-        master.mesh.points,
-        master.contact_faces.faces,
-        search=search,
-    )
-    k = len(c)
-    scale = 1.0 / c.area
-    s_nodes, s_coef = _padded(c.d, scale)
-    m_nodes, m_coef = _padded(c.m, scale)
-    rows = ContactRows(
-        np.full(k, index, np.int64),
-        c.slave_nodes.copy(),
-        c.normals.copy(),
-        c.mean_gap0.copy(),
-        s_nodes,
-        s_coef,
-        m_nodes,
-        m_coef,
-    )
-    e_s, e_m = c.rows(slave.mesh.n_points, master.mesh.n_points)
-    return MortarCandidates(rows, e_s.tocsr(), e_m.tocsr(), c.area.copy())

@@ -141,7 +141,7 @@ class FrameResult:
     separation_ratio : float
         Largest gap of a pushing contact's node at the end over its element size (0 where
         every pushing node touches): how far the linearised rows have drifted from the
-        surfaces they stand for (see :meth:`contact.solver.iteration._Frame.separation`).
+        surfaces they stand for (see :meth:`contact.solver.frame.FrameState.separation`).
     timings : dict of str to float
         Seconds per phase.
     """

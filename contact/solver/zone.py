@@ -21,11 +21,9 @@ from scipy.spatial import cKDTree
 
 __all__ = ["APPROACH", "RING", "master_zone", "slave_zone"]
 
-#: Width of the ring around the expected patch, in element sizes. Measured on the frame
-#: study's small frames (medians of five): 1.0 against 1.5 marks a quarter to a half fewer
-#: DOFs (the README example's first frame 1,431 -> 715, its ratio to one factorisation
-#: and solve 2.69 -> 2.27; the hand cup 811 -> 604 DOFs, 2.45 / 2.23 -> 2.34 / 2.12),
-#: for a few more back-solves (the example's last frame 53 -> 83, its ratio the same).
+#: Width of the ring around the expected patch, in element sizes: a wider ring marks more
+#: DOFs (a dearer factorisation) for fewer back-solves of rows outside it; see
+#: benchmarks/results/frame.md.
 RING = 1.0
 #: Where nothing overlaps yet (a free ball a plate will move onto a hand), the expected
 #: patch is the nodes within this many element sizes of the closest approach: the patch

@@ -10,8 +10,8 @@ import fem
 from contact.cases.rigid import solve_rigid_contact
 from contact.errors import ContactError
 from contact.geometry.plane import Plane
+from contact.solver import ContactSettings, solve_frame
 from contact.solver.body import ElasticBody
-from contact.solver.iteration import ContactSettings, solve_frame
 from contact.solver.pairs import ContactPair, measure
 
 R = 0.02
@@ -85,11 +85,10 @@ def test_contact_space_converges_at_any_stiffness_ratio(ratio):
 
 
 def test_separation_measures_how_far_a_pushing_node_is_off_its_master():
-    from contact.solver.iteration import _Frame
-    from contact.solver.pairs import ContactRows, Penetrations
+    from contact.solver import ContactRows, FrameState, Penetrations
 
     bodies, pairs, planes = scene(1.0)
-    frame = _Frame(bodies, planes, pairs, ContactSettings())
+    frame = FrameState(bodies, planes, pairs, ContactSettings())
     i = next(k for k, p in enumerate(pairs) if p.name == "ball/pad")
     nodes = np.array([3, 5, 7])
     local = frame.local["ball"][nodes]
@@ -128,14 +127,14 @@ def test_force_grows_with_ball_stiffness_towards_the_rigid_ball_limit():
 
 @pytest.mark.parametrize("relaxation", ["none", "fixed", "aitken"])
 def test_seed_loop_agrees_with_contact_space_where_it_converges(relaxation, monkeypatch):
-    import contact.solver.iteration as iteration
+    import contact.solver.contactset as contactset
 
     bodies, pairs, planes = scene(0.1)
     near = solve_frame(bodies, pairs, planes)
     # contact space's first set also holds, open, the nodes near contact at rest: their
     # rows are linearised there, the seed loop's where the pad's deformation first brings
     # them inside (a second-order difference in small strain: 7e-4 in the force)
-    monkeypatch.setattr(iteration, "NEAR", 0.0)
+    monkeypatch.setattr(contactset, "NEAR", 0.0)
     ref = solve_frame(bodies, pairs, planes)
     settings = ContactSettings(
         algorithm="seed", relaxation=relaxation, tolerance=1e-9, max_iterations=80

@@ -9,8 +9,8 @@ import pytest
 import fem
 from contact import load_hand
 from contact.geometry.plane import Plane
+from contact.solver import ContactSettings, solve_frame
 from contact.solver.body import ElasticBody
-from contact.solver.iteration import ContactSettings, solve_frame
 from contact.solver.pairs import ContactPair
 
 R = 0.02
@@ -91,9 +91,9 @@ def test_a_frame_whose_rows_cannot_be_renewed_is_not_converged(monkeypatch):
     # the soft skin's facets turn under the stiff ball: its rows are linearised again on
     # the same facet until the gaps close (the test above); without that, the nodes left
     # inside make the frame not converged, never a silent "converged"
-    import contact.solver.iteration as iteration
+    import contact.solver.contactset as contactset
 
-    monkeypatch.setattr(iteration, "RELINEARISE", 0)
+    monkeypatch.setattr(contactset, "RELINEARISE", 0)
     bodies, pairs, planes = scene(100.0, 0.005)
     res = solve_frame(bodies, pairs, planes, ContactSettings())
     assert not res.converged
@@ -105,7 +105,7 @@ def test_a_frame_whose_rows_cannot_be_renewed_is_not_converged(monkeypatch):
 def test_a_node_in_a_concave_crease_of_the_skin_is_held_by_both_facets():
     # pressed deeper, a ball node comes to a crease of the skin: held on one facet it is
     # inside the next and the other way round; it keeps a row on each, both pushing
-    from contact.solver.iteration import CORNER_COS
+    from contact.solver.contactset import CORNER_COS
 
     bodies, pairs, planes = scene(10.0, 0.008)
     res = solve_frame(bodies, pairs, planes, ContactSettings())

@@ -7,13 +7,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import contact.solver.iteration as iteration
+import contact.solver.contactset as contactset
+import contact.solver.held as held
 import fem
 from contact.geometry.plane import Plane
-from contact.grasp import GraspRun
+from contact.run import GraspRun
 from contact.scene.read import load_scene
+from contact.solver import ContactRows, ContactSettings, FrameState, solve_frame
 from contact.solver.body import ElasticBody
-from contact.solver.iteration import ContactSettings, solve_frame
 from contact.solver.pairs import ContactPair
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -51,7 +52,7 @@ def stiff_flesh_scene():
 def test_a_ball_the_fingers_slide_is_caught_by_what_it_slides_into(tmp_path, monkeypatch):
     # the first set's near rows (NEAR) keep this ball from sliding in the first place:
     # without them, what a slide runs into must catch it
-    monkeypatch.setattr(iteration, "NEAR", 0.0)
+    monkeypatch.setattr(contactset, "NEAR", 0.0)
     res, *_ = frame(tmp_path, "stiff", stiff_flesh_scene())
     assert res.converged, res.stop_reason
     assert res.penetration_ratio <= 1e-3
@@ -61,7 +62,7 @@ def test_a_ball_the_fingers_slide_is_caught_by_what_it_slides_into(tmp_path, mon
     # the proximal wall of the bowl holds it
     assert np.linalg.norm(res.obstacle_forces["cradle_proximal"]) > 1.0
     # stopped at the slide instead, the same frame is "not held", never a silent answer
-    monkeypatch.setattr(iteration, "SLIDES", 0)
+    monkeypatch.setattr(held, "SLIDES", 0)
     res, *_ = frame(tmp_path, "stiff", stiff_flesh_scene())
     assert not res.converged
     assert res.stop_reason.startswith("not held: ball slid ")
@@ -86,7 +87,7 @@ def test_a_ball_whose_walls_touch_it_between_nodes_rests_in_them(tmp_path, monke
     check_balance(res)
     assert res.history[0].max_change < 0.012  # two 6 mm elements
     # without them the first solve slides the ball 25 mm, through the wall
-    monkeypatch.setattr(iteration, "NEAR", 0.0)
+    monkeypatch.setattr(contactset, "NEAR", 0.0)
     res, *_ = frame(tmp_path, "tets", text)
     assert res.history[0].max_change > 0.018
 
@@ -99,7 +100,7 @@ def test_rows_found_after_a_jump_are_linearised_where_the_ball_was(tmp_path, mon
     assert text.count("press = 0.003") == 4
     # the first set's near rows (NEAR) hold the palm from the start: without them the
     # rows found after the jump must bring the ball back
-    monkeypatch.setattr(iteration, "NEAR", 0.0)
+    monkeypatch.setattr(contactset, "NEAR", 0.0)
     res, extra, *_ = frame(tmp_path, "press", text)
     assert res.converged, res.stop_reason
     # each finger closed until its first skin node was 3 mm inside the ball
@@ -113,7 +114,7 @@ def test_rows_found_after_a_jump_are_linearised_where_the_ball_was(tmp_path, mon
     check_balance(res)
     # taken where it landed (some nodes 12 mm inside the flesh, on whatever facet is
     # nearest there), the rows never settle
-    monkeypatch.setattr(iteration, "JUMP", np.inf)
+    monkeypatch.setattr(held, "JUMP", np.inf)
     res, *_ = frame(tmp_path, "press", text)
     assert not res.converged
 
@@ -197,10 +198,10 @@ def test_a_ball_a_small_pad_pushes_away_is_not_held():
 @pytest.mark.parametrize("name", ["table", "wall", "pad"])
 def test_what_the_ball_nearly_touches_gets_open_rows_in_the_first_set(name):
     bodies, pairs, planes = pad_scene()
-    frame_ = iteration._Frame(bodies, planes, pairs, ContactSettings())
+    frame_ = FrameState(bodies, planes, pairs, ContactSettings())
     u = {b.name: np.zeros((b.mesh.n_points, 3)) for b in bodies}
-    plain, _, _ = frame_.new_rows(iteration.ContactRows(), u, touching=True)
-    near, _, _ = frame_.new_rows(iteration.ContactRows(), u, touching=True, near=0.5)
+    plain, _, _ = frame_.contacts.new_rows(ContactRows(), u, touching=True)
+    near, _, _ = frame_.contacts.new_rows(ContactRows(), u, touching=True, near=0.5)
     i = next(k for k, p in enumerate(pairs) if p.master.name == name)
     p = frame_.measure_pair(i, u, frame_.margin)
     local = frame_.local["ball"][p.nodes]

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import fem
+from contact.solver import ContactSettings, solve_frame
 from contact.solver.body import ElasticBody
-from contact.solver.iteration import ContactSettings, solve_frame
 from contact.solver.pairs import ContactPair
 
 P = 1.0e4  # Pa

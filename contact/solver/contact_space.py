@@ -1,0 +1,196 @@
+"""Steps 3 to 5 in contact space: the fixed point of a contact set, solved directly.
+
+The default algorithm. For a set of candidate rows (:class:`contact.solver.rows.ContactRows`)
+the fixed point of steps 3 to 5 of Gourret, Magnenat-Thalmann and Thalmann (1989) is
+solved at once with the Delassus operator of every body
+(:class:`contact.solver.delassus.ContactSpace`): the unilateral solve
+(:mod:`contact.solver.lcp`) closes the rows that must push and leaves the others open at
+zero force, so a row that pulls is opened there, at no cost in back-solves, and is taken
+again there if the linearised gaps need it.
+
+The outer loop only brings geometry (step 2): it measures the deformed bodies, adds a row
+for each node found inside its master, linearises stale rows again
+(:class:`contact.solver.contactset.ContactSet`), and stops when the measure finds nothing
+new. The set of rows only grows within a frame (rows left far behind by a body that moved
+off are dropped), so the outer loop cannot cycle by releasing and taking the same
+contacts in turn, as it would where rows both ways meet (two-pass node-to-surface contact
+over-constrains there). A free body that the contacts let slide or push away stops the
+frame as not held (:mod:`contact.solver.held`).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+
+import numpy as np
+from numpy.typing import NDArray
+
+from . import contactset, held
+from .contactset import set_key
+from .delassus import ContactSpace
+from .frame import FrameState
+from .results import FrameResult, IterationRecord
+from .rows import ContactRows
+
+__all__ = ["LCP_TOLERANCE", "solve_contact_space"]
+
+log = logging.getLogger(__name__)
+
+#: The unilateral solve leaves a row open when its linearised gap is at least minus this
+#: fraction of the penetration tolerance (``gap_tolerance`` times the element size): the
+#: rest of the tolerance is for the linearisation's error, so that the nonlinear measure
+#: does not find the node inside and take it again.
+LCP_TOLERANCE = 0.5
+
+
+def solve_contact_space(frame: FrameState) -> FrameResult:
+    """Resolve the frame's contacts in contact space (see the module docstring).
+
+    Parameters
+    ----------
+    frame : FrameState
+        The frame, its zones marked and its bodies factored.
+
+    Returns
+    -------
+    FrameResult
+        The closed rows and their forces at the last solve, whether the frame converged
+        and why it stopped (``"converged"``, ``"cycling"``, ``"iteration limit"``, not
+        held, ...).
+    """
+    st = frame.settings
+    contacts = frame.contacts
+    space = ContactSpace(frame.bodies)
+    u = {b.name: np.zeros((b.mesh.n_points, 3)) for b in frame.bodies}
+    # step 2 (first time): every node inside or near its master, as candidates
+    rows, _, _ = contacts.new_rows(ContactRows(), u, touching=True, near=contactset.NEAR)
+    history: list[IterationRecord] = []
+    seen: set[bytes] = set()
+    stop, converged = "iteration limit", False
+    prev = np.zeros(sum(b.mesh.n_dofs for b in frame.bodies))
+    solved, lam, states = rows, np.zeros(0), {}
+    start: NDArray[np.float64] | None = None
+    slides = 0
+    slid: tuple[str, dict[str, NDArray[np.float64]]] | None = None
+    last_u = u
+    last_moves: dict[str, NDArray[np.float64]] = {}
+    for it in range(1, st.max_iterations + 1):
+        key = set_key(rows)
+        if key in seen:
+            stop = "cycling"
+            break
+        seen.add(key)
+        t = time.perf_counter()
+        # step 4: each body's part E_b of the rows; a force lambda acts as E_b^T lambda
+        e = frame.matrices(rows)
+        # step 3: the forces that close the rows, with every body's compliance at once
+        tol = LCP_TOLERANCE * frame.row_tol(rows)
+        res, states = space.solve_unilateral(e, rows.g0, tol, start)
+        lam = res.lam
+        frame.timings["contact solve"] += time.perf_counter() - t
+        solved = rows
+        closed = lam > 0
+        n_closed = int(closed.sum())
+        was = start > 0 if start is not None else np.zeros(len(rows), dtype=bool)
+        opened = int((was & ~closed).sum())
+        # step 5: every body's displacements under those forces (the solve's states)
+        u = {name: s.u.reshape(-1, 3) for name, s in states.items()}
+        flat = np.concatenate([states[b.name].u for b in frame.bodies])
+        change = float(np.abs(flat - prev).max())
+        prev = flat
+        moves = held.slides(frame.bodies, states)
+        jump = max(
+            (float(np.linalg.norm(m - last_moves.get(n, 0.0))) for n, m in moves.items()),
+            default=0.0,
+        )
+        before = (last_u, jump) if jump > held.JUMP * frame.margin else None
+        last_u, last_moves = u, moves
+        # step 2: measure the deformed bodies; rows added, renewed or left behind
+        grown, added, depth = contacts.new_rows(rows, u, False, idle=~closed, before=before)
+        if contacts.broken:
+            slides += 1
+            slid = slid or (held.slipping(moves, contacts.broken), moves)
+            if not added or slides > held.SLIDES:
+                # nothing the body slid into holds it (or it keeps sliding): it slips out
+                frame.record(
+                    history,
+                    iteration=it,
+                    contacts=n_closed,
+                    added=0,
+                    released=0,
+                    change=change,
+                    depth=depth,
+                    e=e,
+                    lam=lam,
+                )
+                stop = slid[0]
+                break
+            # it slid into something (a wall, another finger) that may hold it: the rows
+            # it left are dropped, those it now penetrates are solved with the others
+            log.debug("contact space: %d contacts left their facets", contacts.broken)
+            grown = contacts.without_broken(grown)
+        frame.record(
+            history,
+            iteration=it,
+            contacts=n_closed,
+            added=added,
+            released=opened,
+            change=change,
+            depth=depth,
+            e=e,
+            lam=lam,
+            supports=frame.supports(states),
+        )
+        log.debug(
+            "contact space: iteration %d, %d rows (%d closed, %d opened), +%d, %d LCP steps",
+            it,
+            len(rows),
+            n_closed,
+            opened,
+            added,
+            res.steps,
+        )
+        if not res.solved:
+            stop = f"the contact forces did not settle in {res.steps} steps"
+            break
+        if not added:
+            converged, stop = True, "converged"
+            if slid is not None and not held.holds(frame.bodies, e, lam, slid[1]):
+                converged, stop = False, slid[0]
+            elif out := held.pushed_out(e, lam, moves, frame.local):
+                converged, stop = False, out
+            break
+        start = carried(rows, lam, grown)
+        rows = grown
+    keep = lam > 0
+    return frame.result(
+        converged=converged,
+        stop=stop,
+        history=history,
+        rows=solved.select(keep),
+        lam=lam[keep],
+        states=states,
+    )
+
+
+def carried(rows: ContactRows, lam: NDArray[np.float64], grown: ContactRows) -> NDArray[np.float64]:
+    """The forces of ``rows`` carried over to ``grown``, by contact.
+
+    A renewed row keeps its node's (largest) force; a new one starts at zero. The
+    unilateral solve of the grown set starts from them.
+    """
+    out = np.zeros(len(grown))
+    if not len(rows) or not len(grown):
+        return out
+    n = int(max(rows.node.max(), grown.node.max())) + 1
+    code = rows.pair * n + rows.node
+    order = np.lexsort((-lam, code))  # the largest force of a node's rows first
+    uniq, first = np.unique(code[order], return_index=True)
+    best = lam[order][first]
+    new = grown.pair * n + grown.node
+    pos = np.searchsorted(uniq, new)
+    pos = np.minimum(pos, uniq.size - 1)
+    hit = uniq[pos] == new
+    out[hit] = best[pos[hit]]
+    return out
