@@ -34,7 +34,8 @@ from pathlib import Path
 import numpy as np
 
 from contact.hand.keyframes import Keyframes
-from contact.hand.posing import HandPoser, tet_quality, tet_volumes
+from contact.hand.posing import HandPoser
+from contact.hand.quality import tet_quality, tet_volumes
 from contact.hand.shipped import load_hand
 from contact.hand.skeleton import Skeleton
 
@@ -435,7 +436,7 @@ def _write_report(
             "quality: "
             + ", ".join(f"{k} {v:.4f}" for k, v in rest.items())
             + ". A frame: the JLD mapping, then the relaxation of the free nodes around "
-            "the tetrahedra it degrades (contact.hand.posing.FleshRelaxer, a projected Newton "
+            "the tetrahedra it degrades (contact.hand.relax.FleshRelaxer, a projected Newton "
             "method on an untangling energy; each connected part of the patch starts from "
             "the lower-energy of the mapping and the harmonic fill of its folds); the time "
             "grows with the degraded region (deep flexions); it stops when its energy "

@@ -13,6 +13,7 @@ from .autoflex import (
     sphere_distance,
     surface_distance,
 )
+from .blockcg import block_cg, block_pattern
 from .bones import bone_profile, bone_surfaces, joint_clearance, sweep_bone
 from .build import COARSE, FINE, Resolution, build_hand, hand_report, write_hand
 from .checks import bone_gaps, check_hand_geometry, finger_widths, flesh_thickness
@@ -24,34 +25,26 @@ from .flesh import (
     open_joints,
     tetrahedralize_flesh,
 )
-from .jld import JLDMap, SkeletonTopology, muscle_profile, smoothstep
+from .jld import JLDMap
+from .jldframes import SkeletonTopology, muscle_profile, smoothstep
 from .jointgap import bridging_nodes, gap_edges, split_joint_gaps
 from .keyframes import Clamp, Key, Keyframes, kb_tangents, kochanek_bartels
 from .metaballs import field_on_grid, field_threshold, posed_primitives, skin_surface
 from .objects import ObjectAssociation, transform_points
 from .plot import render_hand
-from .posing import (
-    RELAX_QUALITY,
-    RELAX_RESTARTS,
-    RELAX_STALL,
-    RELAX_STOP,
-    RELAX_UNTANGLE,
-    FleshRelaxer,
-    HandPoser,
-    Pose,
-    pose_hand,
+from .posing import HandPoser, Pose, pose_hand
+from .quality import (
+    quality_summary,
+    tet_aspect_ratios,
+    tet_dihedral_angles,
     tet_quality,
     tet_volumes,
 )
-from .quality import quality_summary, tet_aspect_ratios, tet_dihedral_angles
-from .relaxkernels import (
-    block_cg,
-    block_pattern,
-    patch_energy,
-    step_terms,
-    untangle_terms,
-    volumes_quality,
-)
+from .relax import RELAX_QUALITY, RELAX_STOP, FleshRelaxer
+from .relaxkernels import patch_energy, step_terms, untangle_terms, volumes_quality
+from .relaxmesh import RelaxMesh
+from .relaxnewton import RELAX_STALL
+from .restarts import RELAX_RESTARTS, RELAX_UNTANGLE
 from .rigspec import (
     JLD_DEFAULTS,
     ROOT,
@@ -93,6 +86,7 @@ __all__ = [
     "ObjectAssociation",
     "Pose",
     "Primitive",
+    "RelaxMesh",
     "Resolution",
     "RigSpec",
     "Skeleton",

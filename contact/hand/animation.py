@@ -2,43 +2,23 @@
 
 Each frame poses the hand (:class:`~contact.hand.posing.HandPoser`): the bones by forward
 kinematics and the skin surface by the JLD mapping, drawn by
-:func:`contact.hand.plot.render_hand`. The GIF is assembled with Pillow.
+:func:`contact.hand.plot.render_hand`; the GIF by :func:`contact.rendering.write_gif`.
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..rendering import write_gif
 from .keyframes import Keyframes
 from .plot import DORSAL_VIEW, render_hand
 from .posing import HandPoser
 
 __all__ = ["render_sequence", "write_gif"]
-
-
-def write_gif(
-    frames: Sequence[str | os.PathLike], path: str | os.PathLike, fps: float = 10.0
-) -> Path:
-    """Assemble PNG frames into a looping GIF (Pillow)."""
-    from PIL import Image
-
-    if not frames:
-        raise ValueError("write_gif: no frames")
-    images = [Image.open(f).convert("RGB") for f in frames]
-    path = Path(path)
-    images[0].save(
-        path,
-        save_all=True,
-        append_images=images[1:],
-        duration=max(1, round(1000.0 / fps)),
-        loop=0,
-    )
-    return path
 
 
 def render_sequence(

@@ -1,12 +1,13 @@
-"""Automatic flexion: bend one joint until a hand point touches an object (seed 001, §7).
+"""Automatic flexion: bend one joint until a hand point touches an object.
 
-The seed's AUTO_F commands take a keyframe, a hand vertex, an object's facet and a joint,
-and find the flexion angle ``alpha`` with ``|DIST(alpha) - DIST| < epsilon`` by a
-dichotomous search instead of inverse kinematics. Only the contact point is mapped at each
-step (the JLD mapping of its segment); with ``first_contact`` also the skin nodes the joint
-moves, and the first of them to reach the object stops the search. Here the object is any
-signed distance (negative inside); :func:`sphere_distance` and :func:`plane_distance` build
-the usual ones and :func:`surface_distance` wraps a closed surface.
+The AUTO_F commands of Magnenat-Thalmann, Laperrière and Thalmann 1988 (section 7) take a
+keyframe, a hand vertex, an object's facet and a joint, and find the flexion angle ``alpha``
+with ``|DIST(alpha) - DIST| < epsilon`` by a dichotomous search instead of inverse
+kinematics. Only the contact point is mapped at each step (the JLD mapping of its segment);
+with ``first_contact`` also the skin nodes the joint moves, and the first of them to reach
+the object stops the search. Here the object is any signed distance (negative inside);
+:func:`sphere_distance` and :func:`plane_distance` build the usual ones and
+:func:`surface_distance` wraps a closed surface.
 
 A scene can ask for a further press: ``target = -press`` finds the angle at which the point
 lies ``press`` inside the undeformed object; the contact iteration then resolves that
@@ -269,7 +270,7 @@ def auto_flex(
         halved until the distance is within ``epsilon``.
     max_halvings : int
     first_contact : bool
-        False (the seed's AUTO_F): the point alone reaches the target. True: the first
+        False (the paper's AUTO_F): the point alone reaches the target. True: the first
         skin node the joint moves to the target stops the search, the point or another
         (a finger's pad before its tip, on a small ball), so that the flexion never drives
         the finger through the object to bring the point there; nodes already past the

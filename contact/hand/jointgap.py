@@ -1,15 +1,13 @@
 """Two layers of free flesh in every gap between bones: no node is tied to two bones.
 
-A flexion turns one bone past the other. A free node of the flesh whose tetrahedra reach
-the nodes of both bones (a *bridging* node, typically one node across the 1 mm gap of a
-joint) must stay on the positive side of every face its tetrahedra share with either bone:
-at a deep flexion those half-spaces no longer meet, and no mapping or relaxation of the
-free nodes can keep all its tetrahedra positive (measured on the fine hand at 82.5 deg of
-index PIP: the best position of such a node leaves its tetrahedra 0.55 mm on the wrong
-side of a bone face). :func:`split_joint_gaps` bisects the edges from every bridging node
-to the nodes of all its bones but one (the bone with most of its edges): the new middle
-nodes are tied to that bone only, the bridging node to its kept bone only, so the gap
-holds two layers of free nodes and each layer follows one bone. The bisection is
+A flexion turns one bone past the other. A free node of the flesh whose tetrahedra reach the
+nodes of both bones (a *bridging* node, typically one node across the 1 mm gap of a joint)
+must stay on the positive side of every face its tetrahedra share with either bone: at a
+deep flexion those half-spaces no longer meet, and no mapping or relaxation of the free
+nodes can keep all its tetrahedra positive. :func:`split_joint_gaps` bisects the edges from
+every bridging node to the nodes of all its bones but one (the bone with most of its edges):
+the new middle nodes are tied to that bone only, the bridging node to its kept bone only, so
+the gap holds two layers of free nodes and each layer follows one bone. The bisection is
 conforming (every tetrahedron on a split edge splits in two, of half its volume, same
 orientation) and keeps the skin surface unchanged.
 

@@ -1,11 +1,11 @@
 """Keyframed joint angles, interpolated by Kochanek-Bartels splines.
 
-Seed 001 (section 2) gives key values for each joint angle and computes the in-betweens
-with the splines of its reference 18: Kochanek and Bartels, "Interpolating splines with
-local tension, continuity and bias control", SIGGRAPH 1984. Each key ``i`` carries a
-tension ``T``, a continuity ``C`` and a bias ``B`` (all 0 by default, which gives the
-Catmull-Rom spline). With ``d0 = P[i] - P[i-1]`` and ``d1 = P[i+1] - P[i]`` the tangents
-arriving at and leaving key ``i`` are::
+Magnenat-Thalmann, Laperrière and Thalmann 1988 (section 2) give key values for each joint
+angle and compute the in-betweens with the splines of their reference 18: Kochanek and
+Bartels, "Interpolating splines with local tension, continuity and bias control", SIGGRAPH
+1984. Each key ``i`` carries a tension ``T``, a continuity ``C`` and a bias ``B`` (all 0 by
+default, which gives the Catmull-Rom spline). With ``d0 = P[i] - P[i-1]`` and ``d1 = P[i+1]
+- P[i]`` the tangents arriving at and leaving key ``i`` are::
 
     TS[i] = (1-T)(1-C)(1+B)/2 d0 + (1-T)(1+C)(1-B)/2 d1      (incoming, "source")
     TD[i] = (1-T)(1+C)(1+B)/2 d0 + (1-T)(1-C)(1-B)/2 d1      (outgoing, "destination")

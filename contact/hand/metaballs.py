@@ -1,4 +1,6 @@
-"""The skin as the iso-surface of ellipsoidal metaballs (seed 002, sections 1 to 3).
+"""The skin as the iso-surface of ellipsoidal metaballs.
+
+The body model of Thalmann, Shen and Chauvineau (1996), sections 1 to 3.
 
 Each primitive is an ellipsoid attached to its proximal joint, in that joint's frame, with
 radii ``(a, b, c)`` and a weight ``w``. Its field is a soft-object kernel of the ellipsoidal
@@ -9,8 +11,8 @@ distance ``r`` (``r = 1`` on the ellipsoid)::
 where ``R > 1`` is the rig's ``skin.reach``. The surface is the level ``T = (1 - 1/R**2)**3``,
 so an isolated primitive of weight 1 is exactly its ellipsoid; neighbours within reach blend.
 
-Blend groups keep fingers apart (seed 002, 3.1): fields are summed per group, and every
-group blends with the base group (the palm) but not with the others::
+Blend groups keep fingers apart (Thalmann, Shen and Chauvineau 1996, 3.1): fields are summed
+per group, and every group blends with the base group (the palm) but not with the others::
 
     F = S_base + max over other groups g of S_g.
 
@@ -165,8 +167,8 @@ def skin_surface(
     ----------
     skeleton : Skeleton
     angles : mapping of str to float, optional
-        Joint angles in degrees; the rest pose by default. (Posing the primitives is the
-        seed 002 way; the FE skin is posed by the JLD mapping instead.)
+        Joint angles in degrees; the rest pose by default. (Posing the primitives is
+        Thalmann, Shen and Chauvineau's way; the FE skin is posed by the JLD mapping instead.)
     resolution : float
         Grid spacing of the field (m); triangle edges come out about this long.
     smooth_iterations : int

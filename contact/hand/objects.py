@@ -1,10 +1,11 @@
-"""Objects associated with a joint for a time: they follow it (seed 001, OBJECTS command).
+"""Objects associated with a joint for a time: they follow it.
 
-``OBJECTS APPLE INDEX RIGHT KNUCKLES2 5 10`` of the seed: until time 5 the apple is drawn at
-its initial place, from 5 to 10 it follows the motion of the joint, after 10 it stays where
-it was at 10 (its final place). The basis attached to the joint has its origin at the joint,
-x along the flexion axis, y along the joint's segment and z their cross product: the posed
-frame of :meth:`Skeleton.joint_frames`. The object's rigid transform at time ``t`` is::
+The OBJECTS command of Magnenat-Thalmann, Laperrière and Thalmann 1988: ``OBJECTS APPLE
+INDEX RIGHT KNUCKLES2 5 10``: until time 5 the apple is drawn at its initial place, from 5
+to 10 it follows the motion of the joint, after 10 it stays where it was at 10 (its final
+place). The basis attached to the joint has its origin at the joint, x along the flexion
+axis, y along the joint's segment and z their cross product: the posed frame of
+:meth:`Skeleton.joint_frames`. The object's rigid transform at time ``t`` is::
 
     T(t) = F(clip(t, start, stop)) @ inv(F(start))
 

@@ -9,6 +9,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from .. import rendering
+from ..errors import ContactError
+
 if TYPE_CHECKING:
     import pyvista
 
@@ -62,15 +65,12 @@ def render_hand(
     Raises
     ------
     ContactError
-        No off-screen rendering here (:func:`contact.output.writer.rendering_available` says
+        No off-screen rendering here (:func:`contact.rendering.rendering_available` says
         why), rather than a VTK failure that can abort the process.
     """
     import pyvista as pv
 
-    from ..errors import ContactError
-    from ..output.writer import rendering_available
-
-    ok, reason = rendering_available()
+    ok, reason = rendering.rendering_available()
     if not ok:
         raise ContactError(f"cannot render {os.fspath(path)}: {reason}")
 

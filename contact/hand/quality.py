@@ -1,7 +1,9 @@
-"""Quality measures of tetrahedral meshes: dihedral angles, aspect ratio, volumes.
+"""Quality measures of tetrahedral meshes: volumes, shape quality, angles, aspect ratio.
 
-The aspect ratio is VTK's (verdict) for tetrahedra: the longest edge over ``2 sqrt(6)``
-times the inradius, 1 for the regular tetrahedron, large for slivers and needles.
+The shape quality ``6 sqrt(2) V / l_rms^3`` is signed (the relaxer's measure: negative on an
+inverted tetrahedron); the aspect ratio is VTK's (verdict) for tetrahedra: the longest edge
+over ``2 sqrt(6)`` times the inradius, 1 for the regular tetrahedron, large for slivers and
+needles.
 """
 
 from __future__ import annotations
@@ -11,10 +13,47 @@ from numpy.typing import ArrayLike, NDArray
 
 import fem
 
-__all__ = ["quality_summary", "tet_aspect_ratios", "tet_dihedral_angles"]
+from . import relaxkernels
+
+__all__ = [
+    "quality_summary",
+    "tet_aspect_ratios",
+    "tet_dihedral_angles",
+    "tet_quality",
+    "tet_volumes",
+]
 
 _FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])  # face i opposite node i
 _PAIRS = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]])
+
+
+def _points_tets(points: ArrayLike, tets: ArrayLike) -> tuple[NDArray, NDArray]:
+    """Points (N, 3) float and tetrahedra (M, 4) int64, contiguous, checked for the kernels."""
+    pts = np.asarray(points, dtype=np.float64)
+    t = np.asarray(tets)
+    if pts.ndim != 2 or pts.shape[1] != 3 or t.ndim != 2 or t.shape[1] != 4:
+        raise ValueError(
+            f"expected points of shape (N, 3) and tetrahedra of shape (M, 4), got "
+            f"{pts.shape} and {t.shape}"
+        )
+    t = np.ascontiguousarray(t, dtype=np.int64)
+    if t.size and (t.min() < 0 or t.max() >= len(pts)):
+        raise ValueError(f"tetrahedra refer to nodes outside 0..{len(pts) - 1}")
+    return np.ascontiguousarray(pts), t
+
+
+def tet_volumes(points: ArrayLike, tets: ArrayLike) -> NDArray[np.float64]:
+    """Signed volumes of tetrahedra (positive for VTK's orientation), shape (M,)."""
+    return relaxkernels.volumes_quality(*_points_tets(points, tets))[0]
+
+
+def tet_quality(points: ArrayLike, tets: ArrayLike) -> NDArray[np.float64]:
+    """Shape quality ``6 sqrt(2) V / l_rms^3`` of tetrahedra, shape (M,).
+
+    1 for the regular tetrahedron, 0 for a flat one, negative for an inverted one
+    (``l_rms`` is the root mean square of the six edge lengths).
+    """
+    return relaxkernels.volumes_quality(*_points_tets(points, tets))[1]
 
 
 def tet_dihedral_angles(points: ArrayLike, tets: ArrayLike) -> NDArray[np.float64]:

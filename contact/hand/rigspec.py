@@ -9,22 +9,16 @@ line naming the file and the key path, e.g. ``rig.toml: joints.index_pip.flexion
 
 from __future__ import annotations
 
-import math
 import os
-import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from .._toml import MISSING, TomlReader, short, tomllib
 from ..errors import RigError
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover
-    import tomli as tomllib
 
 __all__ = [
     "JLD_DEFAULTS",
@@ -93,10 +87,11 @@ class Primitive:
 
 @dataclass(frozen=True)
 class JLDParams:
-    """The animator's parameters of the JLD skin mapping at one joint (seed 001, section 3).
+    """The animator's parameters of the JLD skin mapping at one joint.
 
-    Proximities are fractions of a segment's length; amplitudes are relative to the flesh
-    thickness beyond the bone. See ``meshes/hand/rig.toml`` (section ``[jld]``).
+    Magnenat-Thalmann, Laperriere and Thalmann 1988, section 3. Proximities are fractions
+    of a segment's length; amplitudes are relative to the flesh thickness beyond the bone.
+    See ``meshes/hand/rig.toml`` (section ``[jld]``).
     """
 
     proximal: float = 0.35
@@ -114,8 +109,6 @@ class JLDParams:
 
     def replace(self, **kw: float) -> JLDParams:
         """A copy with some fields changed."""
-        from dataclasses import replace
-
         return replace(self, **kw)
 
 
@@ -151,51 +144,23 @@ class RigSpec:
         return (self.jld or {}).get(joint, JLD_DEFAULTS)
 
 
-class _Reader:
-    """Typed access to TOML values with one-line errors naming file and key path."""
+class _Reader(TomlReader):
+    """The rig's reader: :class:`RigError`, no key hints, full ``repr`` of a scalar."""
 
-    def __init__(self, source: str) -> None:
-        self.source = source
+    error = RigError
+    hints = False
+    missing = "missing"
 
-    def fail(self, path: str, value: Any, why: str) -> RigError:
-        shown = repr(value) if not isinstance(value, (dict, list)) else _short(value)
-        return RigError(f"{self.source}: {path} = {shown}: {why}")
+    def show(self, value: Any) -> str:
+        """A scalar in full, a table or list cut short."""
+        return repr(value) if not isinstance(value, (dict, list)) else short(value)
 
-    def table(self, data: dict, path: str, required: set[str], optional: set[str]) -> None:
-        if not isinstance(data, dict):
-            raise self.fail(path, data, "must be a table")
-        for key in data:
-            if key not in required | optional:
-                allowed = ", ".join(sorted(required | optional))
-                raise RigError(
-                    f"{self.source}: {_join(path, key)}: unknown key (allowed: {allowed})"
-                )
-        for key in sorted(required):
-            if key not in data:
-                raise RigError(f"{self.source}: {_join(path, key)}: missing")
-
-    def number(self, value: Any, path: str, positive: bool = False) -> float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise self.fail(path, value, "must be a number")
-        if not math.isfinite(value):
-            raise self.fail(path, value, "must be finite")
-        if positive and not value > 0:
-            raise self.fail(path, value, "must be positive")
-        return float(value)
-
-    def vector(self, value: Any, path: str, n: int = 3, positive: bool = False) -> NDArray:
-        if not isinstance(value, list) or len(value) != n:
-            raise self.fail(path, value, f"must be a list of {n} numbers")
-        return np.array([self.number(v, f"{path}[{i}]", positive) for i, v in enumerate(value)])
-
-    def string(self, value: Any, path: str, choices: Any = None) -> str:
-        if not isinstance(value, str) or not value:
-            raise self.fail(path, value, "must be a non-empty string")
-        if choices is not None and value not in choices:
-            raise self.fail(path, value, f"unknown; expected one of {', '.join(choices)}")
-        return value
+    def array(self, value: Any, path: str, n: int = 3, positive: bool = False) -> NDArray:
+        """A list of ``n`` numbers as an array."""
+        return np.array(self.vector(value, path, n, positive=positive))
 
     def limits(self, value: Any, path: str) -> tuple[float, float]:
+        """Joint limits (degrees): ordered, within [-180, 180], around the rest angle 0."""
         lo, hi = self.vector(value, path, 2)
         if lo > hi:
             raise self.fail(path, value, "the lower limit must not exceed the upper")
@@ -206,20 +171,12 @@ class _Reader:
         return float(lo), float(hi)
 
     def axis(self, value: Any, path: str) -> NDArray:
-        v = self.vector(value, path)
+        """A non-zero vector, normalised."""
+        v = self.array(value, path)
         norm = np.linalg.norm(v)
         if norm < 1e-9:
             raise self.fail(path, value, "must be a non-zero vector")
         return v / norm
-
-
-def _short(value: Any) -> str:
-    text = repr(value)
-    return text if len(text) <= 60 else text[:57] + "..."
-
-
-def _join(path: str, key: str) -> str:
-    return f"{path}.{key}" if path else key
 
 
 def _frame(axis_y: NDArray, toward_z: NDArray) -> NDArray:
@@ -367,12 +324,12 @@ def _read_primitive(r: _Reader, p: Any, path: str, joints: dict, groups: tuple) 
     if joint != ROOT and joint not in joints:
         raise r.fail(f"{path}.joint", joint, "unknown joint")
     group = r.string(p["group"], f"{path}.group", groups)
-    rot = _rotation(r.vector(p.get("rotation", [0, 0, 0]), f"{path}.rotation"))
+    rot = _rotation(r.array(p.get("rotation", [0, 0, 0]), f"{path}.rotation"))
     return Primitive(
         joint=joint,
         group=group,
-        center=r.vector(p["center"], f"{path}.center"),
-        radii=r.vector(p["radii"], f"{path}.radii", positive=True),
+        center=r.array(p["center"], f"{path}.center"),
+        radii=r.array(p["radii"], f"{path}.radii", positive=True),
         rotation=rot,
         weight=r.number(p["weight"], f"{path}.weight", positive=True),
     )
@@ -390,13 +347,13 @@ def _read_skeleton(
         p = f"joints.{jn}"
         r.table(j, p, {"parent", "position", "flexion_axis", "flexion"}, {"pivot_axis", "pivot"})
         if ("pivot_axis" in j) != ("pivot" in j):
-            raise RigError(f"{r.source}: {p}: give both pivot_axis and pivot, or neither")
+            raise r.fail(p, MISSING, "give both pivot_axis and pivot, or neither")
         parent = r.string(j["parent"], f"{p}.parent")
         if parent != ROOT and parent not in jdata:
             raise r.fail(f"{p}.parent", parent, "unknown joint")
         raw[jn] = {
             "parent": parent,
-            "position": r.vector(j["position"], f"{p}.position"),
+            "position": r.array(j["position"], f"{p}.position"),
             "flexion_axis": r.axis(j["flexion_axis"], f"{p}.flexion_axis"),
             "flexion": r.limits(j["flexion"], f"{p}.flexion"),
             "pivot_axis": r.axis(j["pivot_axis"], f"{p}.pivot_axis") if "pivot" in j else None,
@@ -418,8 +375,8 @@ def _read_skeleton(
         if joint != ROOT and joint not in raw:
             raise r.fail(f"{p}.joint", joint, "unknown joint")
         if joint == ROOT and "start" not in b:
-            raise RigError(f"{r.source}: {p}.start: missing (a bone on the root needs a start)")
-        start = r.vector(b["start"], f"{p}.start") if "start" in b else raw[joint]["position"]
+            raise r.fail(f"{p}.start", MISSING, "missing (a bone on the root needs a start)")
+        start = r.array(b["start"], f"{p}.start") if "start" in b else raw[joint]["position"]
         end = b["end"]
         if isinstance(end, str):
             if end not in raw:
@@ -428,7 +385,7 @@ def _read_skeleton(
                 raise r.fail(f"{p}.end", end, f"that joint's parent is not {joint!r}")
             end = raw[end]["position"]
         else:
-            end = r.vector(end, f"{p}.end")
+            end = r.array(end, f"{p}.end")
         if np.linalg.norm(end - start) < 1e-3:
             raise r.fail(f"{p}.end", b["end"], "the bone is shorter than 1 mm")
         braw[bn] = {
@@ -436,9 +393,9 @@ def _read_skeleton(
             "part": r.string(b["part"], f"{p}.part", groups),
             "start": start,
             "end": end,
-            "base": r.vector(b["base"], f"{p}.base", 3, positive=True),
-            "shaft": r.vector(b["shaft"], f"{p}.shaft", 2, positive=True),
-            "head": r.vector(b["head"], f"{p}.head", 3, positive=True),
+            "base": r.array(b["base"], f"{p}.base", 3, positive=True),
+            "shaft": r.array(b["shaft"], f"{p}.shaft", 2, positive=True),
+            "head": r.array(b["head"], f"{p}.head", 3, positive=True),
         }
     joints: dict[str, JointSpec] = {}
     for jn, j in raw.items():

@@ -1,6 +1,6 @@
 """The hand skeleton: joints with flexion and pivot angles, limits, forward kinematics.
 
-As in Magnenat-Thalmann, Laperrière and Thalmann (seed 001, sections 2 and 9), the skeleton
+As in Magnenat-Thalmann, Laperrière and Thalmann (1988, sections 2 and 9), the skeleton
 is a tree of joints, each moving the bone distal to it. Every joint has a flexion angle; the
 finger bases, the thumb base and the wrist also have a pivot angle (abduction, a rotation
 about an axis fixed in the parent, applied after the flexion). Angles are in degrees, 0 at
@@ -102,11 +102,6 @@ class Skeleton:
                 order.append(n)
         self._order = order
         self._depth = np.array([depth[n] for n in order])
-
-    @classmethod
-    def from_file(cls, path: str | os.PathLike) -> Skeleton:
-        """Read a rig file (see :func:`load_skeleton`)."""
-        return cls(read_rig(path))
 
     # --- names and limits -------------------------------------------------------------
 

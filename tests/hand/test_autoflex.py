@@ -1,4 +1,5 @@
-"""Automatic flexion: the dichotomous search of seed 001 (AUTO_F commands)."""
+"""Automatic flexion: the dichotomous search of the AUTO_F commands (Magnenat-Thalmann,
+Laperrière and Thalmann 1988)."""
 
 from __future__ import annotations
 

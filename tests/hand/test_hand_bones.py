@@ -40,7 +40,8 @@ def test_bones_closed_outward_with_wider_ends(skeleton, rest):
 
 
 def test_metacarpal_heads_are_dorsal_under_the_knuckles(skeleton, rest):
-    """The knuckles: bone close under the dorsal skin, deeper under the palm (seed 000)."""
+    """The knuckles: bone close under the dorsal skin, deeper under the palm (Gourret et al.
+    1989)."""
     for f in ("index", "middle", "ring", "little"):
         head = rest[f"{f}_metacarpal"].points
         mcp = skeleton.joints[f"{f}_mcp"].position

@@ -27,7 +27,7 @@ def random_angles(skeleton, n, seed=0):
 def test_rig_names_and_limits(skeleton):
     assert len(skeleton.bone_names) == 21
     for f in ("index", "middle", "ring", "little"):
-        assert skeleton.limits[f"{f}_cmc"] == (0.0, 20.0)  # metacarpal flexion, seed 001
+        assert skeleton.limits[f"{f}_cmc"] == (0.0, 20.0)  # metacarpal flexion, as in the JLD paper
         assert skeleton.limits[f"{f}_mcp"] == (-20.0, 90.0)
         assert skeleton.limits[f"{f}_pip"] == (0.0, 110.0)
         assert skeleton.limits[f"{f}_dip"] == (0.0, 80.0)

@@ -8,7 +8,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from contact.hand.jld import JLDMap, muscle_profile
+from contact.hand.jld import JLDMap
+from contact.hand.jldframes import muscle_profile
 from contact.hand.shipped import load_hand
 from contact.hand.skeleton import Skeleton
 
@@ -225,7 +226,7 @@ def test_a_subset_of_points_maps_as_in_the_whole(hand, jld):
         reference=(hand.flesh.points, hand.bone_id),
     )
     np.testing.assert_allclose(sub.map(POSE), jld.map(POSE)[pick], rtol=0, atol=1e-12)
-    assert len(sub._trees) < len(jld._trees)  # only the bones these points need
+    assert len(sub._surfaces.trees) < len(jld._surfaces.trees)  # only the bones these points need
 
 
 def test_one_pose_at_a_time(jld):

@@ -11,7 +11,10 @@ import fem
 from contact.errors import PoseError
 from contact.hand.flesh import joint_pairs
 from contact.hand.jointgap import bridging_nodes, gap_edges, split_joint_gaps
-from contact.hand.posing import FleshRelaxer, HandPoser, tet_volumes
+from contact.hand.posing import HandPoser
+from contact.hand.quality import tet_volumes
+from contact.hand.relax import FleshRelaxer
+from contact.hand.restarts import maxmin, rigid_motion
 from contact.hand.shipped import load_hand
 from contact.hand.skeleton import PIVOT_SUFFIX
 
@@ -107,7 +110,7 @@ def test_fine_hand_has_no_node_tied_to_both_bones_of_a_joint(fine):
 
 
 #: Single-joint poses whose JLD mapping left the free node of a joint gap between both
-#: bones' faces on the fine hand (the relaxer could not mend them before the split).
+#: bones' faces on the fine hand (no relaxation mends them without the split).
 FINE_POSES = [{"index_pip": 82.5}, {"middle_mcp": 67.5}]
 
 
@@ -158,8 +161,7 @@ def test_fine_hand_fold_of_a_split_tetrahedron_is_mended(fine):
     """A random full-limits pose (seed 7, the 23rd: wrist 69 deg, index MCP 85 deg with
     15 deg pivot, little PIP 105 deg) folds the index MCP's split tetrahedron 88404 (one
     node on the index proximal phalanx, three free). The pose comes out with nothing
-    inverted (measured: one restart, min quality 0.0059; before the first pass's
-    harmonic start, 13 restarts and the max-min fallback, 0.0024). The fallback's step
+    inverted. The fallback's step
     alone, maximising the least ``J`` around the tetrahedron's free nodes and one ring
     from the mapped points, turns it positive, where the summed penalty of the restarts'
     untangling left its ``J`` about -0.002 (its neighbours are left to the passes)."""
@@ -173,10 +175,10 @@ def test_fine_hand_fold_of_a_split_tetrahedron_is_mended(fine):
     assert tet_volumes(jld, tets[[88404]])[0] < 0.0
     assert (fine.bone_id[tets[88404]] >= 0).sum() == 1
     relaxer = poser.relaxer
-    free = relaxer._ring(tets[88404], 1)
+    free = relaxer.mesh.ring(tets[88404], 1)
     free = free[~relaxer.fixed[free]]
     x = jld.copy()
-    relaxer._maxmin(x, free)
+    maxmin(relaxer.mesh, x, free)
     assert tet_volumes(x, tets[[88404]])[0] > 0.0
 
 
@@ -190,7 +192,7 @@ def test_rigid_motion_of_a_bone_is_recovered_from_its_nodes(fine):
     )
     names = fine.skeleton.bone_names
     for name in ("index_middle", "carpus"):
-        rot, shift = relaxer._rigid(pose.points, names.index(name))
+        rot, shift = rigid_motion(relaxer.mesh, pose.points, names.index(name))
         t = pose.transforms[name]
         np.testing.assert_allclose(rot, t[:3, :3], atol=1e-12)
         np.testing.assert_allclose(shift, t[:3, 3], atol=1e-14)
@@ -214,10 +216,7 @@ def test_pose_error_names_joint_and_element_of_what_is_left(fine):
 @pytest.mark.parametrize("fraction", [0.75, 1.0])
 def test_fine_hand_over_the_limits_keeps_every_tet_positive(fine, fraction):
     """The posing benchmark's poses at 0.75 and at the full limits (every angle alone at
-    each limit, 40 random poses): 5 and 42 of 80 inverted a tetrahedron before the joint
-    gaps were split, 1 and 31 before the relaxer restarted folds from a bone's rigid
-    motion, none now (measured: min quality 0.0035 / 0.0017; about 1 s / 3 s a pose on 2
-    cores, minutes in all)."""
+    each limit, 40 random poses) leave no tetrahedron inverted (minutes in all)."""
     from benchmarks.posing import sample_range
 
     row = sample_range(HandPoser(fine), fraction, 40)

@@ -1,4 +1,4 @@
-"""Object association (seed 001, OBJECTS): an object follows a joint between two times."""
+"""Object association (the JLD paper's OBJECTS): an object follows a joint between two times."""
 
 from __future__ import annotations
 

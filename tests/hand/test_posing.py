@@ -12,31 +12,22 @@ import pytest
 import fem
 from contact.errors import PoseError, RigError
 from contact.hand.keyframes import Keyframes
-from contact.hand.posing import (
-    RELAX_UNTANGLE,
-    FleshRelaxer,
-    HandPoser,
-    Pose,
-    _cofactor,
-    _eigen_gradients,
-    _eigenvectors,
-    _isotropic_eigen,
-    pose_hand,
-    tet_quality,
-    tet_volumes,
-)
+from contact.hand.posing import HandPoser, Pose, pose_hand
+from contact.hand.quality import tet_quality, tet_volumes
+from contact.hand.relax import FleshRelaxer
+from contact.hand.relax_reference import eigen_gradients, eigenvectors, isotropic_eigen
+from contact.hand.relaxmesh import cofactor
+from contact.hand.restarts import RELAX_UNTANGLE, maxmin
 from contact.hand.shipped import load_hand
 from contact.hand.skeleton import PIVOT_SUFFIX
 
 #: Fraction of the joint limits of the quick random poses.
 SAFE = 0.5
-#: The power grasp's range (degrees): caps on the rig's limits. Beyond them the coarse
-#: mesh used to invert a few tetrahedra (middle PIP at 100 deg, ring PIP at 110); the full
-#: limits pose now too (the slow full-range test).
+#: The power grasp's range (degrees): caps on the rig's limits (the full limits are the
+#: slow full-range test's).
 GRASP_CAPS = {"_pip": 95.0, "_dip": 70.0, "wrist": 45.0}
 #: Single-joint limits the coarse mesh cannot take: none. (A free node trapped between
-#: the two bones of a joint, with tetrahedra on both, can make one: the shipped mesh's
-#: first rebuild had one palmar of the ring MCP at 90 deg; a PoseError names it.)
+#: the two bones of a joint, with tetrahedra on both, can make one; a PoseError names it.)
 UNREACHABLE: set[tuple[str, float]] = set()
 
 
@@ -123,8 +114,7 @@ def test_100_random_poses_leave_every_tet_positive(hand, poser):
 @pytest.mark.slow
 def test_100_random_poses_over_the_full_limits_leave_every_tet_positive(hand, poser):
     """Every angle uniform over its whole range (fingers fully flexed or hyperextended,
-    thumb opposed, wrist bent and deviated at once): about a second a pose (measured:
-    min quality 0.0069 since the relaxer restarts folds; 0.0030 before)."""
+    thumb opposed, wrist bent and deviated at once): about a second a pose."""
     worst, relaxed = _random_poses(poser, hand.skeleton.limits, 100)
     print(f"100 random poses over the full limits: min tet quality {worst:.4f}, {relaxed} relaxed")
     assert worst > 0.0
@@ -133,8 +123,7 @@ def test_100_random_poses_over_the_full_limits_leave_every_tet_positive(hand, po
 @pytest.mark.slow
 def test_100_random_grasp_poses_leave_every_tet_positive(hand, poser):
     """Every angle uniform over the power grasp's range (full limits, PIP <= 95, DIP <= 70,
-    wrist +-45): fingers fully flexed, thumb opposed, wrist bent (measured: under a
-    minute, min quality 0.0024)."""
+    wrist +-45): fingers fully flexed, thumb opposed, wrist bent (under a minute)."""
     worst, relaxed = _random_poses(poser, grasp_limits(hand.skeleton.limits), 100)
     print(f"100 random poses over the grasp range: min tet quality {worst:.4f}, {relaxed} relaxed")
     assert worst > 0.0
@@ -187,7 +176,7 @@ def test_relaxer_leaves_fair_poses_alone_and_untangles(hand, poser):
 
 
 def test_max_min_untangling_lifts_the_least_volume_to_its_target():
-    """The restart's fallback (FleshRelaxer._maxmin) moves the free node of a flipped
+    """The restart's fallback (contact.hand.restarts.maxmin) moves the free node of a flipped
     tetrahedron until its ``J`` reaches RELAX_UNTANGLE, the fixed nodes held."""
     rest = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.2, 0.2, 1.0]]) * 1e-3
     tets = np.array([[0, 1, 2, 3]])
@@ -195,7 +184,7 @@ def test_max_min_untangling_lifts_the_least_volume_to_its_target():
     relaxer = FleshRelaxer(rest, tets, fixed, bone_id=np.array([0, 0, 0, -1]))
     x = rest.copy()
     x[3, 2] = -0.5e-3  # through the fixed face: J = -0.5
-    relaxer._maxmin(x, np.array([3]))
+    maxmin(relaxer.mesh, x, np.array([3]))
     j = tet_volumes(x, tets)[0] / tet_volumes(rest, tets)[0]
     assert j == pytest.approx(RELAX_UNTANGLE, abs=1e-6)
     np.testing.assert_array_equal(x[:3], rest[:3])
@@ -242,7 +231,7 @@ def test_isotropic_eigensystem_projects_as_a_9x9_eigensolver():
     f[5:10] = np.diag([1.0, 1.0, -0.5])  # inverted
     f[10:15] = np.diag([1e-9, 1.0, 2.0])  # flat
     f[15:20] = -np.eye(3)
-    fv, gv = f.reshape(-1, 9), _cofactor(f).reshape(-1, 9)
+    fv, gv = f.reshape(-1, 9), cofactor(f).reshape(-1, 9)
     a, cb = rng.uniform(0.1, 1.0, 400), rng.normal(size=400)
     cj, c = rng.uniform(0.0, 5.0, 400), rng.normal(size=400)
     hf = (2.0 * cb)[:, None, None] * fv[:, :, None] * gv[:, None, :]
@@ -253,8 +242,8 @@ def test_isotropic_eigensystem_projects_as_a_9x9_eigensolver():
     w, v = np.linalg.eigh(hf)
     assert (w < 0.0).any(axis=1).sum() > 100  # most need projecting
     expect = (v * np.maximum(w, 1e-8 * a[:, None])[:, None, :]) @ v.transpose(0, 2, 1)
-    u, vt, ev, wq = _isotropic_eigen(f, a, cb, cj, c)
-    q = _eigenvectors(u, vt, ev)
+    u, vt, ev, wq = isotropic_eigen(f, a, cb, cj, c)
+    q = eigenvectors(u, vt, ev)
     scale = np.abs(hf).max()
     np.testing.assert_allclose(
         q.transpose(0, 2, 1) @ q, np.broadcast_to(np.eye(9), q.shape), atol=1e-12
@@ -269,7 +258,7 @@ def test_isotropic_eigensystem_projects_as_a_9x9_eigensolver():
     for i in range(3):
         b[:, i, :, :, i] = dmat.transpose(0, 2, 1)
     expect_g = b.reshape(400, 9, 12).transpose(0, 2, 1) @ q
-    np.testing.assert_allclose(_eigen_gradients(u, vt, ev, dmat), expect_g, atol=1e-13)
+    np.testing.assert_allclose(eigen_gradients(u, vt, ev, dmat), expect_g, atol=1e-13)
 
 
 def test_harmonic_fill_reproduces_an_affine_displacement(hand, poser):
@@ -284,12 +273,12 @@ def test_harmonic_fill_reproduces_an_affine_displacement(hand, poser):
     inner = np.ones(len(rest), dtype=bool)
     inner[hand.flesh.boundary.nodes] = False
     inner &= hand.bone_id < 0
-    core = relaxer._ring(np.flatnonzero(inner)[:1], 2)
+    core = relaxer.mesh.ring(np.flatnonzero(inner)[:1], 2)
     core = core[inner[core]]
     assert len(core) > 10
     exact = x[core].copy()
     x[core] += np.random.default_rng(3).normal(scale=0.003, size=(len(core), 3))
-    relaxer._fill(x, core)
+    relaxer.mesh.fill(x, core)
     np.testing.assert_allclose(x[core], exact, rtol=0.0, atol=1e-12)
 
 
@@ -381,7 +370,7 @@ def _sequence_steps(poser, poses, warm):
 def test_warm_started_sequence_takes_fewer_newton_steps_on_the_fine_hand():
     """Frames of a keyframed sequence (24 a second) near three quarters of the limits:
     started from the previous frame, the relaxer takes fewer Newton steps for as good a
-    worst tetrahedron (measured: 49 against 101 steps, 0.0104 both)."""
+    worst tetrahedron."""
     fine = HandPoser(load_hand("fine"))
     lim = fine.hand.skeleton.limits
     rng = np.random.default_rng(5)
@@ -398,8 +387,8 @@ def test_warm_started_sequence_takes_fewer_newton_steps_on_the_fine_hand():
 def test_a_warm_start_is_mended_around_its_degraded_tetrahedra_alone(hand, poser):
     """A warm start that the frame's motion leaves fair but for a tetrahedron turned over is
     mended by Newton's method on the free nodes within ``rings`` rings of it: the rest of
-    the part keeps the warm start exactly (measured: 26 nodes moved, where the cold
-    relaxation of the pose moves 141), and the worst quality is the cold one's."""
+    the part keeps the warm start exactly (fewer than half the nodes the cold relaxation
+    of the pose moves), and the worst quality is the cold one's."""
     relaxer = poser.relaxer
     jld = HandPoser(hand, relax=False).pose({"index_mcp": 90.0, "index_pip": 90.0}, check=False)
     cold, _, q_cold = relaxer.relax_quality(jld.points)
@@ -422,7 +411,7 @@ def test_a_warm_start_is_mended_around_its_degraded_tetrahedra_alone(hand, poser
     assert q.min() > 0.0 and q.min() >= 0.99 * q_cold.min()
     moved = np.flatnonzero(np.abs(x - warm).sum(axis=1) > 0)
     low = np.flatnonzero(q_warm < relaxer._floor)
-    ring = relaxer._ring(np.unique(relaxer.tets[low]), relaxer.rings)
+    ring = relaxer.mesh.ring(np.unique(relaxer.tets[low]), relaxer.rings)
     assert node in moved and np.isin(moved, ring).all()
     assert len(moved) < 0.5 * len(moved_cold)
 

@@ -7,14 +7,12 @@ import pytest
 import scipy.sparse as sp
 
 import fem
-from contact.hand import relaxkernels
-from contact.hand.posing import (
-    _CG_RTOL,
-    _EXACT_J,
-    FleshRelaxer,
-    tet_quality,
-    tet_volumes,
-)
+from contact.hand import blockcg, relaxkernels
+from contact.hand.quality import tet_quality, tet_volumes
+from contact.hand.relax import FleshRelaxer
+from contact.hand.relax_reference import terms
+from contact.hand.relaxkernels import EXACT_J
+from contact.hand.relaxnewton import _CG_RTOL
 
 
 def _box_relaxer() -> FleshRelaxer:
@@ -28,7 +26,7 @@ def _box_relaxer() -> FleshRelaxer:
 def _entry_slots(pair_slot: np.ndarray, pair_diag: np.ndarray, ndata: int) -> np.ndarray:
     """The value index of every entry of the (m, 12, 12) element matrices, raveled.
 
-    As :func:`contact.hand.relaxkernels.block_pattern` says: ``pair_diag[p, 0] + i w + j``;
+    As :func:`contact.hand.blockcg.block_pattern` says: ``pair_diag[p, 0] + i w + j``;
     ``ndata`` (one past the end: dropped) on a held node.
     """
     p = pair_slot.reshape(-1, 4, 4)
@@ -41,18 +39,18 @@ def _entry_slots(pair_slot: np.ndarray, pair_diag: np.ndarray, ndata: int) -> np
 
 
 def _reference(relaxer: FleshRelaxer, x: np.ndarray, free: np.ndarray, delta: float) -> tuple:
-    """The numpy terms (``_terms``) assembled as the Newton step did before the kernels."""
-    cells = relaxer._cells(free)
+    """The numpy reference terms assembled on the kernels' pattern."""
+    cells = relaxer.mesh.cells(free)
     tets = relaxer.tets[cells]
-    patch = relaxer._gather(cells)
+    patch = relaxer.mesh.gather(cells)
     local = np.full(len(x), -1)
     local[free] = np.arange(len(free))
     dof = (3 * local[tets][:, :, None] + np.arange(3)).reshape(-1, 12)
     dof[np.repeat(local[tets] < 0, 3, axis=1)] = -1
     n = 3 * len(free)
-    indptr, indices, diag, pair_slot, pair_diag = relaxkernels.block_pattern(local[tets], len(free))
+    indptr, indices, diag, pair_slot, pair_diag = blockcg.block_pattern(local[tets], len(free))
     slot = _entry_slots(pair_slot, pair_diag, len(indices))
-    e, g, hk, lap = relaxer._terms(x, patch, delta)
+    e, g, hk, lap = terms(x, patch, delta, relaxer.kappa)
     gslot = dof.ravel()
     keep = gslot >= 0
     grad = np.bincount(gslot[keep], g.reshape(-1)[keep], minlength=n)
@@ -60,7 +58,7 @@ def _reference(relaxer: FleshRelaxer, x: np.ndarray, free: np.ndarray, delta: fl
     data[pair_diag] += np.bincount(pair_slot, lap.ravel(), minlength=len(pair_diag) + 1)[:-1, None]
     kernel = relaxkernels.step_terms(
         x, tets, patch["dmat"], patch["ddt"], patch["vol"], delta * delta, relaxer.kappa,
-        _EXACT_J, gslot, pair_slot, pair_diag, n, len(indices),
+        EXACT_J, gslot, pair_slot, pair_diag, n, len(indices),
     )  # fmt: skip
     j = np.linalg.det(
         np.transpose(x[tets], (0, 2, 1)) @ patch["dmat"]
@@ -94,9 +92,9 @@ def test_step_terms_equal_the_numpy_reference(case):
         x[free] = (rest[free] - 0.5) @ rot.T + 0.5
     (e, grad, data), (e2, grad2, data2), _, j, _ = _reference(relaxer, x, free, 0.01)
     if case in ("noisy", "inverted", "collapsed", "flat"):
-        assert (j <= _EXACT_J).any()  # the degenerate path is exercised
+        assert (j <= EXACT_J).any()  # the degenerate path is exercised
     if case in ("fair", "rotated"):
-        assert (j > _EXACT_J).all()
+        assert (j > EXACT_J).all()
     assert e2 == pytest.approx(e, rel=1e-12)
     scale = np.abs(grad).max()
     np.testing.assert_allclose(grad2, grad, rtol=0, atol=1e-11 * max(scale, 1e-300))
@@ -126,11 +124,11 @@ def test_block_cg_solves_to_its_tolerance():
     a = sp.csr_matrix((data, indices, indptr), shape=(n, n))
     exact = sp.linalg.spsolve(a.tocsc(), grad)
     for rtol in (_CG_RTOL, 1e-12):
-        got = relaxkernels.block_cg(indptr, indices, data, diag, grad, rtol, 1000)
+        got = blockcg.block_cg(indptr, indices, data, diag, grad, rtol, 1000)
         assert np.linalg.norm(a @ got - grad) <= rtol * np.linalg.norm(grad)
     np.testing.assert_allclose(got, exact, rtol=0, atol=1e-9 * np.abs(exact).max())
     # one iteration: the preconditioned steepest-descent step from zero, no more
-    one = relaxkernels.block_cg(indptr, indices, data, diag, grad, 1e-12, 1)
+    one = blockcg.block_cg(indptr, indices, data, diag, grad, 1e-12, 1)
     blocks = np.linalg.inv(data[diag].reshape(-1, 3, 3))
     z = np.einsum("kij,kj->ki", blocks, grad.reshape(-1, 3)).ravel()
     np.testing.assert_allclose(one, (grad @ z) / (z @ (a @ z)) * z, rtol=1e-12)
@@ -169,7 +167,7 @@ def test_block_pattern_is_the_pattern_of_the_assembled_matrix(nodes, m):
     """
     rng = np.random.default_rng(1)
     lt = rng.integers(-1, nodes, (m, 4))
-    indptr, indices, diag, pair_slot, pair_diag = relaxkernels.block_pattern(lt, nodes)
+    indptr, indices, diag, pair_slot, pair_diag = blockcg.block_pattern(lt, nodes)
     slot = _entry_slots(pair_slot, pair_diag, len(indices))
     dof = (3 * lt[:, :, None] + np.arange(3)).reshape(-1, 12)
     dof[np.repeat(lt < 0, 3, axis=1)] = -1
@@ -206,11 +204,11 @@ def test_untangle_terms_by_volumes_and_finite_differences():
     free = np.flatnonzero(~relaxer.fixed)
     x = relaxer.rest.copy()
     x[free] += 0.15 * np.random.default_rng(5).standard_normal((len(free), 3))
-    cells = relaxer._cells(free)
+    cells = relaxer.mesh.cells(free)
     tets = relaxer.tets[cells]
     local = np.full(len(x), -1)
     local[free] = np.arange(len(free))
-    vol, dmat = relaxer._vol[cells], relaxer._dmat[cells]
+    vol, dmat = relaxer.mesh.vol[cells], relaxer.mesh.dmat[cells]
     target = 0.05
 
     def energy(y: np.ndarray) -> tuple[float, np.ndarray]:
@@ -241,6 +239,6 @@ def test_block_cg_refuses_a_matrix_not_of_3x3_blocks():
     indptr, indices = a.indptr.astype(np.int64), a.indices.astype(np.int64)
     diag = np.arange(18)
     with pytest.raises(ValueError, match="3 x 3 blocks"):
-        relaxkernels.block_cg(indptr, indices, a.data, diag, np.ones(n), 1e-8, 100)
+        blockcg.block_cg(indptr, indices, a.data, diag, np.ones(n), 1e-8, 100)
     with pytest.raises(ValueError, match="3 rows a node"):
-        relaxkernels.block_cg(indptr, indices, a.data, diag, np.ones(5), 1e-8, 100)
+        blockcg.block_cg(indptr, indices, a.data, diag, np.ones(5), 1e-8, 100)
