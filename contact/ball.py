@@ -37,10 +37,8 @@ __all__ = [
 #: Boundary nodes of a ball read from a file must lie within this fraction of the radius
 #: of their sphere (and within a quarter of a hollow ball's wall thickness).
 RADIUS_TOL = 0.02
-#: Linear tetrahedra with a Poisson's ratio above this lock (on Lame's thick sphere, 3 tets
-#: through a 12 mm wall: 7 % too stiff at nu = 0.45, 16 % at 0.49, 52 % at 0.499; the B-bar
-#: bricks of ``element = "hex"`` 1 %): a tet ball then takes averaged nodal pressures
-#: (3-4 % at every nu), and the hand's flesh warns.
+#: Linear tetrahedra with a Poisson's ratio above this lock (too stiff, as Lame's thick
+#: sphere shows): a tet ball then takes averaged nodal pressures, and the hand's flesh warns.
 LOCKING_NU = 0.45
 #: A hollow ball whose internal pressure alone strains its wall by more than this (Lame's
 #: thick sphere) is beyond the small strains linear elasticity describes: a warning.
@@ -89,7 +87,7 @@ class BallSpec:
     E, nu, density : float
         Young's modulus (Pa), Poisson's ratio and density (kg/m^3).
     nodal_pressure : bool or None
-        Tetrahedra with averaged nodal pressures (Bonet and Burton: no volumetric
+        Tetrahedra with averaged nodal pressures (Bonet and Burton 1998: no volumetric
         locking, the factorisation three to four times dearer; :mod:`fem.nodalpressure`).
         None (default): when the mesh is tetrahedra and ``nu`` is above
         :data:`LOCKING_NU`. Bricks are B-bar whatever it says.

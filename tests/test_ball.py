@@ -1,4 +1,4 @@
-"""The ball (issue 4): radius, volume, cavity, pressure load, validation, mesh files, Lame."""
+"""The ball: radius, volume, cavity, pressure load, validation, mesh files, Lame."""
 
 from __future__ import annotations
 

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from .read import (
+from ..errors import SceneError
+from .model import (
+    CONTACT_KEYS,
     LINEAR_SOLVERS,
     AutoFlex,
     Follow,
@@ -11,12 +13,12 @@ from .read import (
     OutputScene,
     PlaneScene,
     Scene,
-    SceneError,
     SolverScene,
-    load_scene,
 )
+from .read import load_scene
 
 __all__ = [
+    "CONTACT_KEYS",
     "LINEAR_SOLVERS",
     "AutoFlex",
     "Follow",

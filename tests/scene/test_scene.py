@@ -1,4 +1,4 @@
-"""The strict scene loader (contact.scene.read): valid scenes, defaults, and bad inputs."""
+"""The strict scene loader (contact.scene): valid scenes, defaults, and bad inputs."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import pytest
 from contact import Keyframes, load_skeleton
 from contact.errors import ContactError
 from contact.hand.shipped import HAND_DIR
-from contact.scene.read import (
+from contact.scene import (
     AutoFlex,
     Material,
     OutputScene,
@@ -23,7 +23,7 @@ from contact.scene.read import (
     SolverScene,
     load_scene,
 )
-from contact.solver.iteration import ContactSettings
+from contact.solver import ContactSettings
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = sorted((ROOT / "examples").glob("*.toml"))
@@ -406,11 +406,11 @@ BAD = [
     ("gap-tolerance-zero", "tolerance = 1.0e-4", "gap_tolerance = 0",
      ["solver.gap_tolerance = 0", "positive"]),
     ("force-tolerance", "tolerance = 1.0e-4", "force_tolerance = -1.0",
-     ["solver.force_tolerance = -1.0", "negative"]),
+     ["solver.force_tolerance = -1.0", ">= 0"]),
     ("iterations-zero", "max_iterations = 50", "max_iterations = 0",
-     ["solver.max_iterations = 0", "at least 1"]),
+     ["solver.max_iterations = 0", ">= 1"]),
     ("iterations-negative", "max_iterations = 50", "max_iterations = -5",
-     ["solver.max_iterations = -5", "at least 1"]),
+     ["solver.max_iterations = -5", ">= 1"]),
     ("algorithm", "max_iterations = 50", 'algorithm = "newton"',
      ["solver.algorithm = 'newton'", "contact-space, seed"]),
     ("relaxation", "max_iterations = 50", 'relaxation = "strong"',

@@ -1,0 +1,62 @@
+"""The scene file's reader: typed TOML values, and the dataclasses' checks with key paths.
+
+:class:`SceneReader` is the strict :class:`~contact._toml.TomlReader` with
+:class:`SceneError`; :meth:`SceneReader.build` constructs a scene dataclass and turns its
+failed check (``E = 0.0: must be positive``) into one line naming the file and the full
+key path (``grasp.toml: hand.flesh.E = 0.0: must be positive``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+from .._toml import TomlReader, join
+from ..errors import SceneError
+from .model import Material
+
+__all__ = ["SceneReader"]
+
+T = TypeVar("T")
+
+
+class SceneReader(TomlReader):
+    """Typed access to a scene's TOML values; every failure is a one-line :class:`SceneError`.
+
+    Parameters
+    ----------
+    source : str
+        The scene file as the messages name it.
+    """
+
+    error = SceneError
+
+    def build(self, path: str, cls: Callable[..., T], *args: Any, **kw: Any) -> T:
+        """``cls(*args, **kw)``, its failed check re-raised with the file and ``path``.
+
+        Parameters
+        ----------
+        path : str
+            Key path of the table the dataclass holds (``""``: the top level).
+        cls : callable
+            A scene dataclass of :mod:`contact.scene.model`.
+        *args, **kw
+            Its fields.
+
+        Returns
+        -------
+        object
+            The dataclass.
+        """
+        try:
+            return cls(*args, **kw)
+        except SceneError as exc:
+            raise SceneError(f"{self.source}: {join(path, str(exc))}") from None
+
+    def material(self, value: Any, path: str, defaults: Material) -> Material:
+        """A ``{E, nu, density}`` table; a missing key takes its value in ``defaults``."""
+        self.table(value, path, optional=("E", "nu", "density"))
+        e = self.number(value.get("E", defaults.E), f"{path}.E")
+        nu = self.number(value.get("nu", defaults.nu), f"{path}.nu")
+        rho = self.number(value.get("density", defaults.density), f"{path}.density")
+        return self.build(path, Material, e, nu, rho)

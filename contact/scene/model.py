@@ -1,0 +1,412 @@
+"""The scene's data: one frozen dataclass per table of a scene file, with defaults and checks.
+
+Each dataclass is the one source of its table's defaults and range checks
+(``docs/scene.md`` documents them, and a test holds the two together); the ``[solver]``
+table holds a :class:`~contact.solver.ContactSettings`, whose own defaults and checks
+apply. A failed check raises :class:`SceneError` naming the field relative to its table,
+``E = 0.0: must be positive``; the reader (:mod:`contact.scene.read`) prefixes the file
+and the table's key path.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field, fields, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+import fem
+from fem.linsolve import BACKENDS
+
+from .._toml import short
+from ..ball import BallSpec
+from ..errors import SceneError
+from ..hand.autoflex import FINGERTIPS
+from ..hand.shipped import HAND_DIR
+from ..solver import ContactSettings
+
+__all__ = [
+    "CONTACT_KEYS",
+    "FLESH",
+    "LINEAR_SOLVERS",
+    "RESERVED",
+    "AutoFlex",
+    "Follow",
+    "HandScene",
+    "Material",
+    "OutputScene",
+    "PlaneScene",
+    "Scene",
+    "SolverScene",
+]
+
+#: Names ``solver.linear_solver`` accepts.
+LINEAR_SOLVERS = ("auto", *BACKENDS)
+#: The ``[solver]`` keys that are :class:`ContactSettings` fields (its support limits
+#: come from ``[hand]``).
+CONTACT_KEYS = tuple(f.name for f in fields(ContactSettings) if f.name != "support_limits")
+#: Body names a plane may not take.
+RESERVED = ("ball", "hand")
+
+
+def _invalid(key: str, value: Any, why: str) -> SceneError:
+    """A failed check of field ``key``, relative to its table."""
+    return SceneError(f"{key} = {short(value)}: {why}")
+
+
+def _fields(obj: Any) -> dict:
+    return {f.name: getattr(obj, f.name) for f in fields(obj)}
+
+
+@dataclass(frozen=True)
+class Material:
+    """A linear elastic material: Young's modulus (Pa), Poisson's ratio, density (kg/m^3).
+
+    Checked as :class:`fem.LinearElastic` checks it: ``E > 0``, ``-1 < nu < 0.5``,
+    ``density >= 0``.
+    """
+
+    E: float
+    nu: float
+    density: float = 1000.0
+
+    def __post_init__(self) -> None:
+        try:
+            self.elastic()
+        except fem.MaterialError as exc:
+            raise SceneError(str(exc)) from None
+
+    def elastic(self) -> fem.LinearElastic:
+        """The material as :class:`fem.LinearElastic`."""
+        return fem.LinearElastic(self.E, self.nu, self.density)
+
+
+#: The flesh's material where ``hand.flesh`` says nothing.
+FLESH = Material(5.0e4, 0.45, 1000.0)
+
+
+@dataclass(frozen=True)
+class AutoFlex:
+    """An automatic flexion (:func:`contact.auto_flex`): bend ``joint`` until ``point`` touches.
+
+    Attributes
+    ----------
+    joint : str
+        The angle searched (``"index_pip"``, ``"thumb_cmc_pivot"``...).
+    point : str or int
+        A fingertip name (:data:`contact.hand.autoflex.FINGERTIPS`) or a flesh node index.
+    epsilon : float
+        Tolerance on the distance (m), positive.
+    press : float
+        Depth (m) to press past first contact, not negative.
+    times : tuple of float or None
+        Frame times at which it applies; None: every frame.
+    first_contact : bool
+        Stop at the first skin node the joint brings to the ball (``point`` or another,
+        a finger's pad before its tip); False: ``point`` alone, as in Magnenat-Thalmann,
+        Laperriere and Thalmann 1988.
+    """
+
+    joint: str
+    point: str | int
+    epsilon: float = 1e-4
+    press: float = 0.0
+    times: tuple[float, ...] | None = None
+    first_contact: bool = True
+
+    def __post_init__(self) -> None:
+        if isinstance(self.point, str) and self.point not in FINGERTIPS:
+            raise _invalid("point", self.point, f"unknown; expected one of {', '.join(FINGERTIPS)}")
+        if not isinstance(self.point, str) and self.point < 0:
+            raise _invalid("point", self.point, "must be at least 0")
+        if not self.epsilon > 0:
+            raise _invalid("epsilon", self.epsilon, "must be positive")
+        if self.press < 0:
+            raise _invalid("press", self.press, "must not be negative")
+
+
+@dataclass(frozen=True)
+class HandScene:
+    """The ``[hand]`` table.
+
+    Attributes
+    ----------
+    rig : Path
+        The rig file (absolute).
+    keyframes : tuple of dict
+        ``{time, angles, tension, continuity, bias}`` per key, validated against the rig;
+        as :class:`contact.Keyframes` takes them (defaults: :class:`contact.Key`).
+    directory : Path
+        Folder of the hand meshes (absolute; the shipped ``meshes/hand`` by default).
+    resolution : {"coarse", "fine"}
+    flesh : Material
+    bone_force_limit : float or None
+        Largest force (N) on any one bone, positive; None: no limit.
+    bone_force_limits : dict of str to float
+        Per-bone limits (N, positive) overriding ``bone_force_limit``.
+    auto_flexion : tuple of AutoFlex
+    nodal_pressure : bool or None
+        The flesh's tetrahedra with averaged nodal pressures (no volumetric locking);
+        None: where ``flesh.nu`` is above :data:`contact.ball.LOCKING_NU`, as for a tet
+        ball.
+    """
+
+    rig: Path
+    keyframes: tuple[dict, ...]
+    directory: Path = HAND_DIR
+    resolution: str = "coarse"
+    flesh: Material = FLESH
+    bone_force_limit: float | None = None
+    bone_force_limits: dict[str, float] = field(default_factory=dict)
+    auto_flexion: tuple[AutoFlex, ...] = ()
+    nodal_pressure: bool | None = None
+
+    def __post_init__(self) -> None:
+        if self.bone_force_limit is not None and not self.bone_force_limit > 0:
+            raise _invalid("bone_force_limit", self.bone_force_limit, "must be positive")
+        for bone, limit in self.bone_force_limits.items():
+            if not limit > 0:
+                raise _invalid(f"bone_force_limits.{bone}", limit, "must be positive")
+
+    def limits(self, bone_names: Iterable[str]) -> dict[str, float]:
+        """The force limit (N) of each bone: its override, else the global one, else none.
+
+        Parameters
+        ----------
+        bone_names : iterable of str
+
+        Returns
+        -------
+        dict of str to float
+            Only the bones that have a limit.
+        """
+        out = {}
+        for name in bone_names:
+            if name in self.bone_force_limits:
+                out[name] = self.bone_force_limits[name]
+            elif self.bone_force_limit is not None:
+                out[name] = self.bone_force_limit
+        return out
+
+
+@dataclass(frozen=True)
+class PlaneScene:
+    """A rigid plane: the ball side is where ``normal`` points.
+
+    Attributes
+    ----------
+    name : str
+        Not a body's name (:data:`RESERVED`).
+    point : tuple of 3 floats
+        A point of the plane at rest (m).
+    normal : tuple of 3 floats
+        Unit normal (the file's normal, normalised).
+    offsets : tuple of (float, (float, float, float))
+        ``(time, translation)`` keys, times increasing: the plane's rigid translation (m),
+        piecewise linear between keys and constant outside; empty: the plane is fixed.
+    """
+
+    name: str
+    point: tuple[float, float, float]
+    normal: tuple[float, float, float]
+    offsets: tuple[tuple[float, tuple[float, float, float]], ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.name in RESERVED:
+            raise _invalid("name", self.name, f"reserved for a body ({', '.join(RESERVED)})")
+        for j in range(1, len(self.offsets)):
+            t, d = self.offsets[j]
+            if not t > self.offsets[j - 1][0]:
+                previous = self.offsets[j - 1][0]
+                raise _invalid(
+                    f"offsets[{j}]", [t, *d], f"times must increase (previous {previous:g})"
+                )
+
+    def offset(self, time: float) -> NDArray[np.float64]:
+        """The plane's translation (m) at ``time``, shape (3,)."""
+        if not self.offsets:
+            return np.zeros(3)
+        t = np.array([k[0] for k in self.offsets])
+        d = np.array([k[1] for k in self.offsets])
+        return np.array([np.interp(time, t, d[:, i]) for i in range(3)])
+
+
+@dataclass(frozen=True)
+class Follow:
+    """The ball follows a hand joint from ``start`` to ``stop`` (:class:`ObjectAssociation`)."""
+
+    joint: str
+    start: float
+    stop: float
+
+    def __post_init__(self) -> None:
+        if self.stop < self.start:
+            raise _invalid("stop", self.stop, f"must not be before start = {self.start:g}")
+
+
+@dataclass(frozen=True)
+class SolverScene:
+    """The ``[solver]`` table: the contact settings and the linear solver.
+
+    Attributes
+    ----------
+    contact : ContactSettings
+        The contact iteration's settings (without support limits: those come from the
+        hand); its defaults and checks are the scene's.
+    linear_solver : str
+        One of :data:`LINEAR_SOLVERS`: ``"auto"`` (the first available) or a backend of
+        :mod:`fem.linsolve`.
+    """
+
+    contact: ContactSettings = field(default_factory=ContactSettings)
+    linear_solver: str = "auto"
+
+    def __post_init__(self) -> None:
+        if self.linear_solver not in LINEAR_SOLVERS:
+            raise _invalid(
+                "linear_solver",
+                self.linear_solver,
+                f"unknown; expected one of {', '.join(LINEAR_SOLVERS)}",
+            )
+
+    def settings(self, support_limits: Mapping[str, float]) -> ContactSettings:
+        """The contact settings, with the force limit of each support group (bone)."""
+        return replace(self.contact, support_limits=dict(support_limits))
+
+    def echo(self) -> dict:
+        """The table as the file lays it out: :data:`CONTACT_KEYS`, then ``linear_solver``."""
+        return {
+            **{k: getattr(self.contact, k) for k in CONTACT_KEYS},
+            "linear_solver": self.linear_solver,
+        }
+
+
+@dataclass(frozen=True)
+class OutputScene:
+    """The ``[output]`` table.
+
+    Attributes
+    ----------
+    directory : Path
+        Results folder, as written (relative to the current working directory).
+    pictures : bool
+        Write PNG pictures of the stress.
+    gif : bool
+        Write an animated GIF of the frames.
+    window_size : (int, int)
+        Picture size in pixels, each at least 1.
+    """
+
+    directory: Path = Path("results")
+    pictures: bool = True
+    gif: bool = True
+    window_size: tuple[int, int] = (1024, 768)
+
+    def __post_init__(self) -> None:
+        for i, v in enumerate(self.window_size):
+            if v < 1:
+                raise _invalid(f"window_size[{i}]", v, "must be at least 1")
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated scene (see :func:`contact.scene.load_scene`).
+
+    Attributes
+    ----------
+    path : Path
+        The scene file (absolute).
+    name : str
+        ``scene.name``, default the file's stem.
+    ball : BallSpec
+    hand : HandScene or None
+    planes : tuple of PlaneScene
+    follow : Follow or None
+    frames : tuple of float
+        Times to compute, increasing.
+    gravity : (float, float, float) or None
+        m/s^2; None: no gravity.
+    solver : SolverScene
+    output : OutputScene
+    description : str
+        ``scene.description``.
+    """
+
+    path: Path
+    name: str
+    ball: BallSpec
+    hand: HandScene | None
+    planes: tuple[PlaneScene, ...]
+    follow: Follow | None
+    frames: tuple[float, ...]
+    gravity: tuple[float, float, float] | None
+    solver: SolverScene
+    output: OutputScene
+    description: str = ""
+
+    def echo(self) -> dict:
+        """The whole scene with its defaults filled in, JSON-serialisable, in the file's layout.
+
+        Paths are strings; ``None`` stands for an absent optional value.
+        """
+        b = self.ball
+        ball = {
+            "radius": b.radius,
+            "kind": b.kind,
+            "thickness": b.thickness,
+            "pressure": b.pressure,
+            "element": b.element,
+            "mesh_size": b.mesh_size,
+            "mesh": None if b.mesh is None else str(b.mesh),
+            "center": list(b.center),
+            "material": {"E": b.E, "nu": b.nu, "density": b.density},
+            "nodal_pressure": b.nodal_pressure,
+            "follow": None if self.follow is None else _fields(self.follow),
+        }
+        hand = None
+        if self.hand is not None:
+            h = self.hand
+            hand = {
+                "rig": str(h.rig),
+                "directory": str(h.directory),
+                "resolution": h.resolution,
+                "flesh": _fields(h.flesh),
+                "bone_force_limit": h.bone_force_limit,
+                "bone_force_limits": dict(h.bone_force_limits),
+                "keyframe": [{**k, "angles": dict(k["angles"])} for k in h.keyframes],
+                "auto_flexion": [
+                    {**_fields(a), "times": None if a.times is None else list(a.times)}
+                    for a in h.auto_flexion
+                ],
+                "nodal_pressure": h.nodal_pressure,
+            }
+        return {
+            "path": str(self.path),
+            "scene": {
+                "name": self.name,
+                "description": self.description,
+                "gravity": None if self.gravity is None else list(self.gravity),
+            },
+            "ball": ball,
+            "hand": hand,
+            "plane": [
+                {
+                    "name": p.name,
+                    "point": list(p.point),
+                    "normal": list(p.normal),
+                    "offsets": [[t, *d] for t, d in p.offsets],
+                }
+                for p in self.planes
+            ],
+            "frames": {"times": list(self.frames)},
+            "solver": self.solver.echo(),
+            "output": {
+                "directory": str(self.output.directory),
+                "pictures": self.output.pictures,
+                "gif": self.output.gif,
+                "window_size": list(self.output.window_size),
+            },
+        }
