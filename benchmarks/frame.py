@@ -27,8 +27,8 @@ import numpy as np
 
 import fem
 from contact.cases.hertz_bodies import hertz_scene
+from contact.solver import ContactSettings, solve_frame
 from contact.solver.body import ElasticBody
-from contact.solver.iteration import ContactSettings, solve_frame
 from contact.solver.results import FrameResult
 
 from ._common import (
@@ -218,7 +218,7 @@ def _hertz_rows(quick: bool) -> list[dict]:
 
 def _example_rows(repeat: int = REPEAT) -> list[dict]:
     """Every frame of the README's example scene, as ``python -m contact.grasp`` solves it."""
-    from contact.grasp import GraspRun
+    from contact.run import GraspRun
     from contact.scene.read import load_scene
 
     path = Path(__file__).resolve().parents[1] / "examples" / "grasp.toml"

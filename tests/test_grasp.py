@@ -97,7 +97,7 @@ def test_nearly_incompressible_flesh_takes_nodal_pressures_or_warns_of_locking(t
     by ``hand.nodal_pressure = false``, it warns that its tetrahedra lock."""
     import warnings
 
-    from contact.grasp import GraspRun
+    from contact.run import GraspRun
     from contact.scene.read import load_scene
 
     text = HAND.format(out=(tmp_path / "out").as_posix()).replace(
@@ -124,9 +124,9 @@ def test_nearly_incompressible_flesh_takes_nodal_pressures_or_warns_of_locking(t
 
 def test_not_converged_exits_1_and_still_writes(tmp_path, monkeypatch):
     # without the plate's near nodes in the first set its patch takes two updates
-    import contact.solver.iteration
+    import contact.solver.contactset
 
-    monkeypatch.setattr(contact.solver.iteration, "NEAR", 0.0)
+    monkeypatch.setattr(contact.solver.contactset, "NEAR", 0.0)
     scene, out = write(tmp_path, iterations=1)
     assert main([str(scene), "--quiet"]) == 1
     summary = json.loads((out / "summary.json").read_text())

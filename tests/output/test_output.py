@@ -12,7 +12,7 @@ import pytest
 import fem
 from contact.errors import ContactError
 from contact.geometry.plane import Plane
-from contact.output.writer import (
+from contact.output import (
     STRESS_COMPONENTS,
     BodyFrame,
     OutputError,
@@ -350,9 +350,9 @@ def test_unwritable_or_foreign_folders_are_refused(tmp_path):
 
 
 def test_pictures_skipped_without_rendering(tmp_path, monkeypatch, caplog):
-    import contact.output.writer
+    import contact.rendering
 
-    monkeypatch.setattr(contact.output.writer, "rendering_available", lambda: (False, "no OpenGL"))
+    monkeypatch.setattr(contact.rendering, "rendering_available", lambda: (False, "no OpenGL"))
     bodies = scene_bodies()
     res = frame_result({k: b.mesh for k, b in bodies.items()})
     with ResultsWriter(tmp_path / "r") as w:
@@ -431,7 +431,7 @@ def test_real_frames_with_pictures_gif_and_convergence(tmp_path):
 @pytest.mark.parametrize("egl", [True, False])
 def test_headless_linux_asks_vtk_for_egl_where_it_renders(monkeypatch, egl):
     """No display: EGL is probed first and chosen where it renders, else VTK chooses."""
-    import contact.output.writer as out
+    import contact.rendering as out
 
     calls = []
 
@@ -466,10 +466,10 @@ def test_headless_linux_asks_vtk_for_egl_where_it_renders(monkeypatch, egl):
 
 
 def test_hand_picture_without_rendering_is_a_clear_error(monkeypatch, tmp_path):
-    import contact.output.writer
+    import contact.rendering
     from contact.hand.plot import render_hand
 
-    monkeypatch.setattr(contact.output.writer, "rendering_available", lambda: (False, "no OpenGL"))
+    monkeypatch.setattr(contact.rendering, "rendering_available", lambda: (False, "no OpenGL"))
     with pytest.raises(ContactError, match=r"cannot render .*hand\.png: no OpenGL"):
         render_hand(tmp_path / "hand.png", {})
     assert not (tmp_path / "hand.png").exists()

@@ -1,0 +1,284 @@
+"""What ``summary.json`` says: a frame's verdict and record, the package versions, the JSON.
+
+A frame's record (:func:`frame_entry`) holds its time, verdict, forces (contact, obstacle,
+bone), contacts per pair, largest von Mises stress per body, the iteration history, its
+files and its timings. Everything but the ``"timings"`` keys (seconds) and the versions is
+a function of the input, so that two runs of one scene give equal summaries.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import sys
+from collections.abc import Mapping, Sequence
+from importlib import metadata
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..solver.results import FrameResult
+
+__all__ = ["frame_entry", "jsonable", "summary_text", "verdict", "versions"]
+
+#: Distributions whose versions :func:`versions` reports (key -> distribution name).
+_DISTRIBUTIONS = {
+    "numpy": "numpy",
+    "scipy": "scipy",
+    "meshio": "meshio",
+    "pyvista": "pyvista",
+    "vtk": "vtk",
+    "matplotlib": "matplotlib",
+    "pillow": "pillow",
+    "pytetwild": "pytetwild",
+    "libigl": "libigl",
+    "pypardiso": "pypardiso",
+    "grasp-contact": "grasp-contact",
+}
+
+
+def verdict(result: FrameResult) -> dict[str, Any]:
+    """The verdict of a frame: realistic when converged and no bone is over its limit.
+
+    Parameters
+    ----------
+    result : FrameResult
+
+    Returns
+    -------
+    dict
+        ``{"realistic": bool, "reason": str}``; the reason names every bone over its
+        limit with its force and limit, else the stop reason of a solve that did not
+        converge, else ``"converged; every bone under its limit"``.
+    """
+    if result.over_limit:
+        parts = [
+            f"bone {name} carries {float(f):.4g} N > its limit {float(lim):.4g} N"
+            for name, (f, lim) in sorted(result.over_limit.items())
+        ]
+        return {"realistic": False, "reason": "; ".join(parts)}
+    if not result.converged:
+        return {"realistic": False, "reason": f"not converged: {result.stop_reason}"}
+    return {"realistic": True, "reason": "converged; every bone under its limit"}
+
+
+def versions() -> dict[str, str]:
+    """Versions of Python and of the packages the results depend on.
+
+    Returns
+    -------
+    dict of str to str
+        ``python`` and each distribution (``"not installed"`` when missing).
+    """
+    out = {"python": sys.version.split()[0]}
+    for key, dist in _DISTRIBUTIONS.items():
+        try:
+            out[key] = metadata.version(dist)
+        except metadata.PackageNotFoundError:
+            out[key] = "not installed"
+    return out
+
+
+def jsonable(value: Any) -> Any:
+    """``value`` as plain JSON types (arrays to lists, non-finite floats to None).
+
+    Parameters
+    ----------
+    value : any
+        Mappings, sequences, sets (sorted by ``repr``), numpy arrays and scalars, paths,
+        dataclasses; anything else becomes its ``str``.
+
+    Returns
+    -------
+    any
+        Dicts with string keys, lists, bool, int, float, str or None.
+    """
+    if isinstance(value, Mapping):
+        return {str(k): jsonable(v) for k, v in value.items()}
+    if isinstance(value, np.ndarray):
+        return jsonable(value.tolist())
+    if isinstance(value, (list, tuple, set, frozenset)):
+        items = sorted(value, key=repr) if isinstance(value, (set, frozenset)) else value
+        return [jsonable(v) for v in items]
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        v = float(value) + 0.0  # no -0.0
+        return v if math.isfinite(v) else None
+    if value is None or isinstance(value, str):
+        return value
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
+    if hasattr(value, "__dataclass_fields__"):
+        return jsonable({k: getattr(value, k) for k in value.__dataclass_fields__})
+    return str(value)
+
+
+def _vector(v: ArrayLike) -> dict[str, Any]:
+    a = np.asarray(v, dtype=np.float64).reshape(3)
+    return {"force": jsonable(a), "magnitude": float(np.linalg.norm(a))}
+
+
+def _history(result: FrameResult) -> list[dict[str, Any]]:
+    return [
+        {
+            "iteration": int(r.iteration),
+            "n_contacts": int(r.n_contacts),
+            "added": int(r.added),
+            "released": int(r.released),
+            "max_change": float(r.max_change),
+            "max_penetration": float(r.max_penetration),
+            "total_force": jsonable(np.asarray(r.total_force, dtype=np.float64)),
+            "normal_force": float(r.normal_force),
+            "relaxation": float(r.relaxation),
+            "max_support_force": float(r.max_support_force),
+        }
+        for r in result.history
+    ]
+
+
+def _bone_forces(result: FrameResult) -> dict[str, dict[str, Any]]:
+    """Support forces keyed by group name (``body/group`` where a name repeats)."""
+    counts: dict[str, int] = {}
+    for groups in result.support_forces.values():
+        for g in groups:
+            counts[g] = counts.get(g, 0) + 1
+    out = {}
+    for body in sorted(result.support_forces):
+        for g in sorted(result.support_forces[body]):
+            key = g if counts[g] == 1 else f"{body}/{g}"
+            out[key] = {"body": body, **_vector(result.support_forces[body][g])}
+    return out
+
+
+def frame_entry(
+    index: int,
+    time: float,
+    result: FrameResult,
+    *,
+    vtu: Mapping[str, str],
+    max_von_mises: Mapping[str, float],
+    picture: str | None,
+    extra: Mapping[str, Any] | None = None,
+) -> dict[str, Any]:
+    """The ``summary.json`` record of one frame.
+
+    Parameters
+    ----------
+    index : int
+        Frame number.
+    time : float
+        Frame time.
+    result : FrameResult
+        The frame's solve.
+    vtu : mapping of str to str
+        Body name -> its ``.vtu`` file, relative to the results folder.
+    max_von_mises : mapping of str to float
+        Body name -> its largest cell-average von Mises stress (Pa).
+    picture : str or None
+        The frame's picture, relative to the results folder, or None without pictures.
+    extra : mapping, optional
+        More JSON-able items (a key of the record may not be repeated).
+
+    Returns
+    -------
+    dict
+        The record, as plain JSON types.
+
+    Raises
+    ------
+    ValueError
+        When ``extra`` repeats a key of the record.
+    """
+    pairs = result.contacts.get("pair") if result.contacts else None
+    per_pair: dict[str, int] = {}
+    if pairs is not None:
+        names, counts = np.unique(np.asarray(pairs).astype(str), return_counts=True)
+        per_pair = {str(n): int(c) for n, c in zip(names, counts, strict=True)}
+    entry: dict[str, Any] = {
+        "index": index,
+        "time": time,
+        "converged": bool(result.converged),
+        "stop_reason": str(result.stop_reason),
+        "algorithm": str(result.algorithm),
+        "iterations": int(result.iterations),
+        "verdict": verdict(result),
+        "max_penetration": float(result.max_penetration),
+        "penetration_ratio": float(result.penetration_ratio),
+        "separation_ratio": float(result.separation_ratio),
+        "contact_force": {
+            b: _vector(np.asarray(result.contact_force[b]).sum(axis=0))
+            for b in sorted(result.contact_force)
+        },
+        "obstacle_forces": {
+            p: _vector(result.obstacle_forces[p]) for p in sorted(result.obstacle_forces)
+        },
+        "bone_forces": _bone_forces(result),
+        "over_limit": {
+            b: {"force": float(f), "limit": float(lim)}
+            for b, (f, lim) in sorted(result.over_limit.items())
+        },
+        "contacts": {"total": int(sum(per_pair.values())), "per_pair": per_pair},
+        "max_von_mises": dict(max_von_mises),
+        "history": _history(result),
+        "files": {"vtu": dict(vtu), "picture": picture},
+        "timings": {k: float(v) for k, v in sorted(result.timings.items())},
+    }
+    if extra:
+        clash = sorted(set(extra) & set(entry))
+        if clash:
+            raise ValueError(f"extra repeats keys of the frame entry: {clash}")
+        entry.update(jsonable(dict(extra)))
+    return jsonable(entry)
+
+
+def summary_text(
+    *,
+    scene: Mapping[str, Any],
+    versions: Mapping[str, str],
+    entries: Sequence[Mapping[str, Any]],
+    pictures: str,
+    stress_components: Sequence[str],
+    files: Mapping[str, Any],
+    timings: Mapping[str, float],
+) -> str:
+    """The text of ``summary.json``: the scene, versions, frame records and verdicts.
+
+    Parameters
+    ----------
+    scene : mapping
+        The scene with its defaults filled.
+    versions : mapping of str to str
+        Package versions (:func:`versions`).
+    entries : sequence of dict
+        The frame records (:func:`frame_entry`), in frame order.
+    pictures : str
+        ``"written"``, ``"off"``, or why they were skipped.
+    stress_components : sequence of str
+        Order of the six components of the VTU ``stress`` array.
+    files : mapping
+        The folder's series and pictures, relative to the folder.
+    timings : mapping of str to float
+        Seconds spent on the pictures and on finishing the folder.
+
+    Returns
+    -------
+    str
+        Indented JSON with a final newline; no NaN or infinity.
+    """
+    summary = {
+        "scene": jsonable(scene),
+        "versions": jsonable(versions),
+        "frames": list(entries),
+        "all_converged": all(e["converged"] for e in entries),
+        "all_realistic": all(e["verdict"]["realistic"] for e in entries),
+        "pictures": pictures,
+        "stress_components": list(stress_components),
+        "files": files,
+        "timings": dict(timings),
+    }
+    return json.dumps(summary, indent=2, allow_nan=False) + "\n"

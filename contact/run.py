@@ -1,0 +1,277 @@
+"""A scene set up for solving, frame by frame: scene -> bodies -> pose -> solve.
+
+For every frame, after Gourret, Magnenat-Thalmann and Thalmann (1989, Fig. 9):
+
+1. position (:meth:`GraspRun.angles`, :meth:`GraspRun.hand_body`,
+   :meth:`GraspRun.ball_body`): the hand's joint angles from the keyframes
+   (Kochanek-Bartels), closed further by automatic flexion where the scene asks for it,
+   and every flesh node mapped by JLD; the ball placed (it may follow a joint); the
+   planes moved;
+2. to 5. the contact iteration (:func:`contact.solver.iteration.solve_frame`), in contact
+   space by default or as the paper's literal loop.
+
+:class:`GraspRun` keeps what lasts across frames: the ball is factored once per scene
+(again only when a joint turns it), the hand once per pose, and the previous pose
+warm-starts the next. Writing the results is the caller's (:mod:`contact.grasp`).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+import fem
+
+from .ball import LOCKING_NOTE, LOCKING_NU, Ball, make_ball
+from .errors import InputError
+from .geometry.plane import Plane
+from .geometry.surfacequery import TriangleSurface
+from .hand.autoflex import auto_flex, sphere_distance
+from .hand.keyframes import Keyframes
+from .hand.objects import ObjectAssociation
+from .hand.posing import HandPoser, Pose
+from .hand.shipped import load_hand
+from .scene.read import Scene
+from .solver.body import ElasticBody
+from .solver.iteration import solve_frame
+from .solver.pairs import ContactPair
+from .solver.results import FrameResult, IterationRecord
+
+__all__ = ["GraspRun"]
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class GraspRun:
+    """A scene set up for solving: the bodies that last across frames.
+
+    Parameters
+    ----------
+    scene : contact.scene.read.Scene
+        The loaded scene.
+
+    Attributes
+    ----------
+    ball : contact.ball.Ball
+        The ball's mesh, material and loads at its scene position.
+    hand : contact.hand.shipped.Hand or None
+        The shipped hand, with its poser and keyframes, when the scene has one.
+    limits : dict of str to float
+        Force limit of each bone that holds flesh nodes (N); empty without a hand.
+    """
+
+    scene: Scene
+    ball: Ball = field(init=False)
+    _ball_body: ElasticBody | None = field(default=None, init=False)
+    _ball_key: bytes = field(default=b"", init=False)
+    _hand_body: ElasticBody | None = field(default=None, init=False)
+    _hand_key: bytes = field(default=b"", init=False)
+    _pose: Pose | None = field(default=None, init=False)
+
+    def __post_init__(self) -> None:
+        sc = self.scene
+        self.ball = make_ball(sc.ball)
+        self.hand = None
+        self.poser = None
+        self.nodal_pressure = False
+        self.keyframes = None
+        if sc.hand is not None:
+            hs = sc.hand
+            self.hand = load_hand(hs.resolution, hs.directory)
+            self.poser = HandPoser(self.hand)
+            self.keyframes = Keyframes(self.hand.skeleton, list(hs.keyframes))
+            self.flesh = hs.flesh.elastic()
+            # the flesh is linear tetrahedra: averaged nodal pressures where they would
+            # lock, as for a tet ball
+            nodal = hs.nodal_pressure
+            self.nodal_pressure = hs.flesh.nu > LOCKING_NU if nodal is None else nodal
+            if not self.nodal_pressure and hs.flesh.nu > LOCKING_NU:
+                warnings.warn(
+                    f"hand.flesh.nu = {hs.flesh.nu:g} on the flesh's linear tetrahedra with "
+                    f"hand.nodal_pressure = false: {LOCKING_NOTE}; averaged nodal pressures "
+                    "(the default) do not lock",
+                    stacklevel=2,
+                )
+            names = self.hand.skeleton.bone_names
+            self.bones = {n: self.hand.bone_nodes(n) for n in names if self.hand.bone_nodes(n).size}
+            self.limits = hs.limits(list(self.bones))
+        else:
+            self.limits = {}
+
+    # --- step 1: positioning -------------------------------------------------------
+
+    def angles(self, t: float) -> dict[str, float]:
+        """The hand's angles at time ``t``: keyframes, then automatic flexion.
+
+        Each automatic flexion's outcome is kept in :attr:`auto_flexed` (joint to angle,
+        the node that reached the ball, its distance, converged and why).
+        """
+        assert self.keyframes is not None and self.hand is not None
+        angles = self.keyframes.pose(t)
+        self.auto_flexed: dict[str, dict] = {}
+        for af in self.scene.hand.auto_flexion:
+            if af.times is not None and not any(abs(t - s) <= 1e-12 for s in af.times):
+                continue
+            res = auto_flex(
+                self.hand,
+                af.point,
+                sphere_distance(self._ball_centre(t), self.ball.spec.radius),
+                af.joint,
+                angles=angles,
+                press=af.press,
+                epsilon=af.epsilon,
+                first_contact=af.first_contact,
+            )
+            if not res.converged:
+                log.warning("t = %g: automatic flexion of %s: %s", t, af.joint, res.reason)
+            self.auto_flexed[af.joint] = {
+                "angle": res.angle,
+                "node": res.node,
+                "distance": res.distance,
+                "converged": res.converged,
+                "reason": res.reason,
+            }
+            angles = dict(res.angles)
+        return angles
+
+    def ball_transform(self, t: float) -> NDArray[np.float64]:
+        """Rigid placement of the ball at ``t`` from its scene position (4x4)."""
+        follow = self.scene.follow
+        if follow is None or self.hand is None:
+            return np.eye(4)
+        assoc = ObjectAssociation("ball", follow.joint, follow.start, follow.stop)
+        return assoc.transform(self.hand.skeleton, self.keyframes.pose, t)  # type: ignore[union-attr]
+
+    def _ball_centre(self, t: float) -> NDArray[np.float64]:
+        tf = self.ball_transform(t)
+        return tf[:3, :3] @ np.asarray(self.ball.spec.center, float) + tf[:3, 3]
+
+    def ball_body(self, t: float) -> ElasticBody:
+        """The ball placed for ``t``; refactored only when its placement turns it."""
+        tf = self.ball_transform(t)
+        key = np.round(tf[:3, :3], 12).tobytes()
+        x = self.ball.mesh.points @ tf[:3, :3].T + tf[:3, 3]
+        if self._ball_body is None or key != self._ball_key:
+            mesh = self._placed_mesh(x)
+            loads = self.ball.loads.reshape(-1, 3) @ tf[:3, :3].T
+            g = self.scene.gravity
+            if g is not None:
+                loads = loads + fem.gravity_load(mesh, self.ball.material, g).reshape(-1, 3)
+            self._ball_body = ElasticBody(
+                "ball",
+                mesh,
+                self.ball.material,
+                loads=loads.ravel(),
+                contact_faces=self.ball.outer,
+                backend=self.scene.solver.linear_solver,
+                nodal_pressure=self.ball.nodal_pressure,
+            )
+            self._ball_key = key
+            return self._ball_body
+        # a translation: same stiffness, same factorisation, moved points
+        return self._ball_body.translated(x)
+
+    def _placed_mesh(self, x: NDArray[np.float64]) -> fem.Mesh:
+        m = self.ball.mesh
+        return fem.Mesh(x, m.cells, m.regions)
+
+    def hand_body(self, angles: dict[str, float]) -> ElasticBody:
+        """The hand posed for ``angles``, factored once per distinct pose."""
+        assert self.poser is not None
+        key = np.array(sorted(angles.items()), dtype=object).tobytes()
+        if self._hand_body is not None and key == self._hand_key:
+            return self._hand_body
+        # the previous frame's pose warm-starts the flesh's relaxation (HandPoser.pose)
+        pose = self.poser.pose(angles, start=self._pose)
+        mesh = pose.mesh()
+        prescribed = fem.node_dofs(self.hand.prescribed_nodes)  # type: ignore[union-attr]
+        self._hand_body = ElasticBody(
+            "hand",
+            mesh,
+            self.flesh,
+            prescribed=prescribed,
+            supports=self.bones,
+            backend=self.scene.solver.linear_solver,
+            contact_faces=self.hand.skin_faces,  # type: ignore[union-attr]
+            nodal_pressure=self.nodal_pressure,
+        )
+        self._hand_key = key
+        self._pose = pose
+        return self._hand_body
+
+    def check_bones(self, ball: ElasticBody, t: float) -> None:
+        """Refuse a ball that starts inside a bone: its contact cannot be resolved."""
+        hand = self.hand
+        assert hand is not None and self._pose is not None
+        x = ball.mesh.points[ball.contact_nodes]
+        for name, surf in hand.bones.items():
+            tf = self._pose.transforms[name]
+            pts = np.asarray(surf.points) @ tf[:3, :3].T + tf[:3, 3]
+            tri = np.asarray(surf.faces).reshape(-1, 4)[:, 1:]
+            s = TriangleSurface(pts, tri, name=f"bone {name}")
+            lo, hi = pts.min(axis=0), pts.max(axis=0)
+            near = np.all((x >= lo) & (x <= hi), axis=1)
+            if near.any() and (s.winding_number(x[near]) > 0.5).any():
+                raise InputError(
+                    f"frame t = {t:g}: the ball starts inside bone {name}: place the ball "
+                    "or close the hand less"
+                )
+
+    # --- one frame -----------------------------------------------------------------
+
+    def frame(
+        self, t: float, callback: Callable[[IterationRecord], None] | None = None
+    ) -> tuple[FrameResult, dict, list[Plane], list[ElasticBody]]:
+        """Set up and solve the frame at time ``t``.
+
+        Parameters
+        ----------
+        t : float
+            Frame time.
+        callback : callable, optional
+            Called with each iteration's record (progress).
+
+        Returns
+        -------
+        result : FrameResult
+            The solve, with its set-up time under ``timings["setup"]``.
+        extra : dict
+            For the summary: the hand's angles, automatic flexions and smallest tet
+            quality (empty without a hand).
+        planes : list of Plane
+            The planes at ``t``.
+        bodies : list of ElasticBody
+            The ball, then the hand.
+        """
+        sc = self.scene
+        t0 = time.perf_counter()
+        ball = self.ball_body(t)
+        bodies = [ball]
+        pairs: list[ContactPair] = []
+        extra: dict = {}
+        if self.hand is not None:
+            angles = self.angles(t)
+            hand = self.hand_body(angles)
+            self.check_bones(ball, t)
+            bodies.append(hand)
+            pairs += [ContactPair(ball, hand), ContactPair(hand, ball)]
+            extra["angles"] = angles
+            if self.auto_flexed:
+                extra["auto_flexion"] = self.auto_flexed
+            assert self._pose is not None
+            extra["min_tet_quality"] = float(self._pose.min_quality)
+        planes = [Plane(p.point, p.normal, motion=p.offset(t), name=p.name) for p in sc.planes]
+        pairs = [ContactPair(ball, p) for p in planes] + pairs
+        setup = time.perf_counter() - t0
+        # steps 2 to 5
+        settings = sc.solver.settings(self.limits)
+        result = solve_frame(bodies, pairs, planes, settings, callback=callback)
+        result.timings["setup"] = setup
+        return result, extra, planes, bodies
