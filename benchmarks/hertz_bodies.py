@@ -22,7 +22,7 @@ from pathlib import Path
 
 import fem
 from contact.cases.hertz_bodies import hertz_bodies_check, hertz_scene
-from contact.solver.iteration import ContactSettings, solve_frame
+from contact.solver import ContactSettings, solve_frame
 from contact.solver.results import FrameResult
 
 from ._common import (

@@ -13,13 +13,14 @@ Two scenes, both with two deformable bodies:
     the block, graded hex meshes of ``fine_size`` cells at the contact.
 
 Algorithms (:func:`contact.solver.iteration.solve_frame`): ``"contact-space"`` (contact-set
-updates, each solved exactly with both bodies' compliance) and seed 000's
-Dirichlet-Neumann loop with each relaxation of its Neumann side (none, a fixed factor
-0.5, Aitken's). The seed loop's Dirichlet body is the ball (the sphere): in the hand
-cup it must be, since the cup's planes touch only the ball. On the Hertz scene the seed
-loop runs with the sphere's nodes against the block only (one way), as with pairs both
-ways it diverges on its first iteration (rows met node to node prescribe the sphere
-twice: one variant shows it); one more variant makes the softer body the Dirichlet one.
+updates, each solved exactly with both bodies' compliance) and the Dirichlet-Neumann loop of
+Gourret, Magnenat-Thalmann and Thalmann (1989) with each relaxation of its Neumann side
+(none, a fixed factor 0.5, Aitken's). The seed loop's Dirichlet body is the ball (the
+sphere): in the hand cup it must be, since the cup's planes touch only the ball. On the
+Hertz scene the seed loop runs with the sphere's nodes against the block only (one way), as
+with pairs both ways it diverges on its first iteration (rows met node to node prescribe the
+sphere twice: one variant shows it); one more variant makes the softer body the Dirichlet
+one.
 
 Studies:
 
@@ -54,7 +55,7 @@ import numpy as np
 
 import contact
 from contact.cases.hertz_bodies import hertz_scene
-from contact.solver.iteration import ContactSettings, solve_frame
+from contact.solver import ContactSettings, solve_frame
 from contact.solver.results import FrameResult
 
 from ._common import (
