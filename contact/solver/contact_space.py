@@ -27,6 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from . import contactset, held
+from .anchors import Anchors
 from .contactset import set_key
 from .delassus import ContactSpace
 from .frame import FrameState
@@ -44,13 +45,15 @@ log = logging.getLogger(__name__)
 LCP_TOLERANCE = 0.5
 
 
-def solve_contact_space(frame: FrameState) -> FrameResult:
+def solve_contact_space(frame: FrameState, anchors: Anchors | None = None) -> FrameResult:
     """Resolve the frame's contacts in contact space (see the module docstring).
 
     Parameters
     ----------
     frame : FrameState
         The frame, its zones marked and its bodies factored.
+    anchors : Anchors, optional
+        The frictional contacts' stick anchors from the previous frame.
 
     Returns
     -------

@@ -19,7 +19,9 @@ from collections.abc import Callable, Sequence
 
 import fem
 
+from ..errors import ContactError
 from ..geometry.plane import Plane
+from .anchors import Anchors
 from .body import ElasticBody
 from .contact_space import solve_contact_space
 from .frame import FrameState
@@ -39,6 +41,7 @@ def solve_frame(
     *,
     dirichlet: str | None = None,
     callback: Callable[[IterationRecord], None] | None = None,
+    anchors: Anchors | None = None,
 ) -> FrameResult:
     """Resolve the contacts of one frame.
 
@@ -58,6 +61,10 @@ def solve_frame(
         Seed loop: the body solved with its contacts prescribed (default the first).
     callback : callable, optional
         Called with each iteration's record as it is made (progress display).
+    anchors : Anchors, optional
+        Where each frictional contact stuck at the end of the previous frame (its
+        ``FrameResult.anchors``): Coulomb's law acts on the slip since then. None: the
+        first frame, every contact anchored where it is first found.
 
     Returns
     -------
@@ -68,12 +75,17 @@ def solve_frame(
     Raises
     ------
     ContactError
-        Bad settings, or a free body that nothing holds.
+        Bad settings, or a free body that nothing holds, or friction with the seed loop.
     """
     settings = settings or ContactSettings()
     with fem.sparse_threads():  # the cores are PARDISO's: no spinning OpenBLAS workers
         frame = FrameState(bodies, planes, pairs, settings, callback=callback)
         frame.mark_zones()
         if settings.algorithm == "seed":
+            if any(p.friction for p in pairs):
+                raise ContactError(
+                    "the seed loop takes no friction: set solver.algorithm = "
+                    '"contact-space" or every friction to 0'
+                )
             return solve_seed(frame, dirichlet or frame.bodies[0].name)
-        return solve_contact_space(frame)
+        return solve_contact_space(frame, anchors)

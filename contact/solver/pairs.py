@@ -54,13 +54,23 @@ class ContactPair:
         The body whose surface nodes must stay outside the master.
     master : ElasticBody or Plane
         The obstacle.
+    mortar : bool
+        Mortar rows (a deformable master only) instead of node-to-surface rows.
+    friction : float
+        Coulomb's coefficient ``mu >= 0`` of the pair (0: frictionless).
     """
 
     slave: ElasticBody
     master: ElasticBody | Plane
     mortar: bool = False
+    friction: float = 0.0
 
     def __post_init__(self) -> None:
+        mu = self.friction
+        if isinstance(mu, bool) or not isinstance(mu, (int, float)) or not 0.0 <= mu < np.inf:
+            raise ValueError(f"{self.name}: friction = {mu!r} must be a finite number >= 0")
+        if mu and self.mortar:
+            raise ValueError(f"{self.name}: mortar rows take no friction")
         if self.mortar and isinstance(self.master, Plane):
             raise ValueError(f"{self.name}: mortar rows need a deformable master, not a plane")
 

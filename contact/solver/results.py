@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["ContactResult", "FrameResult", "IterationRecord"]
+__all__ = ["ContactResult", "FrameResult", "FrictionReport", "IterationRecord"]
 
 
 @dataclass(frozen=True)
@@ -99,6 +99,40 @@ class ContactResult:
 
 
 @dataclass(frozen=True)
+class FrictionReport:
+    """Coulomb friction in a frame's last contact solve.
+
+    Attributes
+    ----------
+    iterations : int
+        Newton iterations of the frictional solves, summed over the frame's updates.
+    residual : float
+        Complementarity residual of the last solve (the Alart-Curnier natural map, over
+        the frame's force scale): normal complementarity, the cone and stick or slip.
+    tolerance : float
+        The residual a solve must reach to count as solved.
+    stick, slip : int
+        Closed contacts that stick (inside their cone) and that slip (on its boundary).
+    max_slip : float
+        Largest tangential slip increment of a contact in this frame (m).
+    max_cone_use : float
+        Largest ``|t| / (mu n)`` of a closed frictional contact (1 on the cone).
+    tangential_force : dict of str to ndarray
+        Pair name -> total tangential force ``(3,)`` its slave nodes receive (N); a plane's
+        pairs also appear under the plane's name as the force the bodies exert on it.
+    """
+
+    iterations: int
+    residual: float
+    tolerance: float
+    stick: int
+    slip: int
+    max_slip: float
+    max_cone_use: float
+    tangential_force: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
 class FrameResult:
     """The outcome of the contact solve of one frame, for every body.
 
@@ -144,6 +178,19 @@ class FrameResult:
         surfaces they stand for (see :meth:`contact.solver.frame.FrameState.separation`).
     timings : dict of str to float
         Seconds per phase.
+    friction : FrictionReport or None
+        Coulomb friction's figures, None where every pair is frictionless.
+    held : bool or None
+        Whether every free body is held (in balance under its contacts), None where the
+        scene has no free body.
+    anchors : object or None
+        The stick anchors to carry to the next frame
+        (:class:`contact.solver.anchors.Anchors`), None where every pair is frictionless.
+    contact_fields : dict of str to dict of str to ndarray
+        Body name -> nodal fields of the contacts: ``normal_force`` ``(N,)`` (N),
+        ``tangential_force`` ``(N, 3)`` (N), ``contact_status`` ``(N,)`` (0 none or open,
+        1 stick, 2 slip; a frictionless closed contact slips), ``cone_use`` ``(N,)``
+        (``|t| / (mu n)``, 0 where frictionless); the largest over a node's contacts.
     """
 
     converged: bool
@@ -161,6 +208,10 @@ class FrameResult:
     penetration_ratio: float = 0.0
     separation_ratio: float = 0.0
     timings: dict[str, float] = field(default_factory=dict)
+    friction: FrictionReport | None = None
+    held: bool | None = None
+    anchors: object | None = None
+    contact_fields: dict[str, dict[str, NDArray]] = field(default_factory=dict)
 
     def total_contact_force(self, body: str) -> NDArray[np.float64]:
         """Sum of the contact forces on one body (N)."""

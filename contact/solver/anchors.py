@@ -1,0 +1,44 @@
+"""Stick anchors: where each frictional contact stuck, the only history friction carries.
+
+Quasi-static Coulomb friction acts on a frame's slip increment: the slave node's motion
+relative to the master's material point it stuck to at the end of the previous frame (a
+facet and barycentric weights, or a point of a plane, which moves with the plane).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["Anchors"]
+
+
+@dataclass(frozen=True)
+class Anchors:
+    """The anchors of the contacts closed at the end of a frame.
+
+    Attributes
+    ----------
+    pair : ndarray of str, shape (k,)
+        Each anchor's pair name (``"slave/master"``): pairs are rebuilt each frame.
+    node : ndarray of int, shape (k,)
+        Its slave node.
+    facet : ndarray of int, shape (k, 3)
+        The master facet's nodes (-1 against a plane).
+    weights : ndarray, shape (k, 3)
+        Barycentric weights on the facet (0 against a plane).
+    point : ndarray, shape (k, 3)
+        Against a plane: the anchor point less the plane's motion (m), so that it moves
+        with the plane; NaN against a body.
+    """
+
+    pair: NDArray = field(default_factory=lambda: np.zeros(0, dtype=object))
+    node: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, np.int64))
+    facet: NDArray[np.int64] = field(default_factory=lambda: np.zeros((0, 3), np.int64))
+    weights: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)))
+    point: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)))
+
+    def __len__(self) -> int:
+        return int(self.node.size)
