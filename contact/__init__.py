@@ -26,7 +26,7 @@ from .hand.posing import HandPoser, Pose, pose_hand
 from .hand.shipped import Hand, load_hand
 from .hand.skeleton import Skeleton, load_skeleton
 from .output import BodyFrame, ResultsWriter, verdict
-from .scene.read import Scene, SceneError, load_scene
+from .scene import Scene, SceneError, load_scene
 from .solver import ContactSettings, solve_frame
 from .solver.body import ElasticBody
 from .solver.pairs import ContactPair

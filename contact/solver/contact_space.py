@@ -29,10 +29,12 @@ from numpy.typing import NDArray
 from . import contactset, held
 from .anchors import Anchors
 from .contactset import set_key
+from .coulomb import friction_state, unheld
 from .delassus import ContactSpace
 from .frame import FrameState
 from .results import FrameResult, IterationRecord
 from .rows import ContactRows
+from .tangential import Friction, end_anchors
 
 __all__ = ["LCP_TOLERANCE", "solve_contact_space"]
 
@@ -64,10 +66,15 @@ def solve_contact_space(frame: FrameState, anchors: Anchors | None = None) -> Fr
     """
     st = frame.settings
     contacts = frame.contacts
-    space = ContactSpace(frame.bodies)
+    friction = Friction(frame, anchors)
+    space = ContactSpace(frame.bodies, rotations=friction.active)
     u = {b.name: np.zeros((b.mesh.n_points, 3)) for b in frame.bodies}
     # step 2 (first time): every node inside or near its master, as candidates
     rows, _, _ = contacts.new_rows(ContactRows(), u, touching=True, near=contactset.NEAR)
+    if friction.active:
+        friction.register(rows, u)
+    tangential: dict | None = None
+    fres = None
     history: list[IterationRecord] = []
     seen: set[bytes] = set()
     stop, converged = "iteration limit", False
@@ -85,12 +92,20 @@ def solve_contact_space(frame: FrameState, anchors: Anchors | None = None) -> Fr
             break
         seen.add(key)
         t = time.perf_counter()
-        # step 4: each body's part E_b of the rows; a force lambda acts as E_b^T lambda
-        e = frame.matrices(rows)
-        # step 3: the forces that close the rows, with every body's compliance at once
-        tol = LCP_TOLERANCE * frame.row_tol(rows)
-        res, states = space.solve_unilateral(e, rows.g0, tol, start)
-        lam = res.lam
+        if friction.active:
+            # steps 3 and 4 with Coulomb friction: normal and tangential rows at once
+            fres, states, e, _, tangent = friction.solve(space, rows, start, tangential)
+            lam_all = fres.lam
+            lam = lam_all[: len(rows)]
+            steps, settled = fres.iterations, fres.solved
+        else:
+            # step 4: each body's part E_b of the rows; a force lambda acts as E_b^T lambda
+            e = frame.matrices(rows)
+            # step 3: the forces that close the rows, with every body's compliance at once
+            tol = LCP_TOLERANCE * frame.row_tol(rows)
+            res, states = space.solve_unilateral(e, rows.g0, tol, start)
+            lam = lam_all = res.lam
+            steps, settled = res.steps, res.solved
         frame.timings["contact solve"] += time.perf_counter() - t
         solved = rows
         closed = lam > 0
@@ -111,7 +126,7 @@ def solve_contact_space(frame: FrameState, anchors: Anchors | None = None) -> Fr
         last_u, last_moves = u, moves
         # step 2: measure the deformed bodies; rows added, renewed or left behind
         grown, added, depth = contacts.new_rows(rows, u, False, idle=~closed, before=before)
-        if contacts.broken:
+        if contacts.broken and not friction.active:
             slides += 1
             slid = slid or (held.slipping(moves, contacts.broken), moves)
             if not added or slides > held.SLIDES:
@@ -125,13 +140,18 @@ def solve_contact_space(frame: FrameState, anchors: Anchors | None = None) -> Fr
                     change=change,
                     depth=depth,
                     e=e,
-                    lam=lam,
+                    lam=lam_all,
+                    normal_rows=len(rows),
                 )
                 stop = slid[0]
                 break
             # it slid into something (a wall, another finger) that may hold it: the rows
             # it left are dropped, those it now penetrates are solved with the others
             log.debug("contact space: %d contacts left their facets", contacts.broken)
+            grown = contacts.without_broken(grown)
+        elif contacts.broken:
+            # with friction a body is held by its cones or not at all: rows it left far
+            # behind are dropped, the solve says whether what is left holds it
             grown = contacts.without_broken(grown)
         frame.record(
             history,
@@ -142,8 +162,9 @@ def solve_contact_space(frame: FrameState, anchors: Anchors | None = None) -> Fr
             change=change,
             depth=depth,
             e=e,
-            lam=lam,
+            lam=lam_all,
             supports=frame.supports(states),
+            normal_rows=len(rows),
         )
         log.debug(
             "contact space: iteration %d, %d rows (%d closed, %d opened), +%d, %d LCP steps",
@@ -152,21 +173,39 @@ def solve_contact_space(frame: FrameState, anchors: Anchors | None = None) -> Fr
             n_closed,
             opened,
             added,
-            res.steps,
+            steps,
         )
-        if not res.solved:
-            stop = f"the contact forces did not settle in {res.steps} steps"
+        if not settled:
+            if fres is not None:
+                stop = unheld(frame, space, friction, rows) or (
+                    f"friction did not settle in {steps} Newton steps "
+                    f"(residual {fres.residual:.2g})"
+                )
+            else:
+                stop = f"the contact forces did not settle in {steps} steps"
             break
         if not added:
             converged, stop = True, "converged"
-            if slid is not None and not held.holds(frame.bodies, e, lam, slid[1]):
+            if friction.active:
+                pass  # a frictional solve that settled holds every free body
+            elif slid is not None and not held.holds(frame.bodies, e, lam, slid[1]):
                 converged, stop = False, slid[0]
             elif out := held.pushed_out(e, lam, moves, frame.local):
                 converged, stop = False, out
             break
         start = carried(rows, lam, grown)
+        if friction.active:
+            tangential = friction.carry(rows, lam_all, tangent)
+            friction.register(grown, u)
         rows = grown
     keep = lam > 0
+    state = None
+    u_end = {b.name: states[b.name].u.reshape(-1, 3) for b in frame.bodies} if states else u
+    if friction.active and fres is not None:
+        state = friction_state(friction, solved, fres, tangent, keep)
+        ends = friction.anchors_after(solved, fres.status, tangent, u_end)
+    else:
+        ends = end_anchors(frame, solved.select(keep), u_end)
     return frame.result(
         converged=converged,
         stop=stop,
@@ -174,6 +213,8 @@ def solve_contact_space(frame: FrameState, anchors: Anchors | None = None) -> Fr
         rows=solved.select(keep),
         lam=lam[keep],
         states=states,
+        friction=state,
+        anchors=ends,
     )
 
 

@@ -90,11 +90,20 @@ class ContactSpace:
     ----------
     bodies : sequence of ElasticBody
         Every body of the scene, each factored once.
+    rotations : bool
+        Place free bodies by all six rigid modes, their rotations included (with
+        friction, whose tangential rows hold them); otherwise by their placing modes
+        (:attr:`fem.StaticSolver.placing_modes`).
     """
 
-    def __init__(self, bodies: Sequence[ElasticBody]) -> None:
+    def __init__(self, bodies: Sequence[ElasticBody], rotations: bool = False) -> None:
         self.bodies = list(bodies)
+        self.rotations = rotations
         self._u0: dict[str, NDArray[np.float64]] = {}
+
+    def placing(self, body: ElasticBody) -> NDArray[np.float64]:
+        """The rigid modes that place a free body in this space."""
+        return body.solver.modes if self.rotations else body.solver.placing_modes
 
     def free_response(self, body: ElasticBody, f: NDArray[np.float64]) -> NDArray[np.float64]:
         """``C f``: the body's displacement under loads ``f`` (a free body: rigid part removed)."""
@@ -147,7 +156,7 @@ class ContactSpace:
                 rhs -= eb @ self.own_response(body)
             if s.free_body:
                 free.append(body)
-                phi = s.placing_modes
+                phi = self.placing(body)
                 g_cols.append(eb @ phi if eb is not None else np.zeros((m, phi.shape[1])))
                 balance.append(-(phi.T @ body.loads))
         return ContactSystem(
@@ -171,7 +180,7 @@ class ContactSpace:
             forces = eb.T @ lam if eb is not None and m else np.zeros(body.mesh.n_dofs)
             rigid = np.zeros(0)
             if body.solver.free_body:
-                r = body.solver.placing_modes.shape[1]
+                r = self.placing(body).shape[1]
                 rigid = np.zeros(6)
                 rigid[:r] = a[k : k + r]
                 k += r

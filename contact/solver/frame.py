@@ -23,9 +23,11 @@ import fem
 from ..errors import ContactError
 from ..geometry.plane import Plane
 from . import contactset
+from .anchors import Anchors
 from .body import ElasticBody
 from .contactset import ContactSet, first_set
 from .delassus import BodyState
+from .fields import FrictionState, contact_fields, held_verdict
 from .pairs import ContactPair, Penetrations, Survey, measure
 from .results import FrameResult, IterationRecord
 from .rows import ContactRows, MortarCandidates, mortar_candidates
@@ -187,6 +189,7 @@ class FrameState:
         lam: NDArray[np.float64],
         relaxation: float = 1.0,
         supports: Mapping[str, Mapping[str, NDArray]] | None = None,
+        normal_rows: int | None = None,
     ) -> None:
         """Append an iteration's record to ``history`` and tell the callback.
 
@@ -212,6 +215,9 @@ class FrameState:
             The seed loop's relaxation factor (1 otherwise).
         supports : mapping, optional
             The support groups' forces (:meth:`supports`); none: a largest of 0.
+        normal_rows : int, optional
+            With friction: the first ``normal_rows`` rows are the normal ones (the
+            rest tangential), for the record's normal force.
         """
         largest = 0.0
         if supports is not None:
@@ -225,7 +231,7 @@ class FrameState:
             max_change=change,
             max_penetration=depth,
             total_force=_body_force(e, lam, self.bodies[0]),
-            normal_force=float(np.nansum(lam)),
+            normal_force=float(np.nansum(lam[:normal_rows])),
             relaxation=relaxation,
             max_support_force=largest,
         )
@@ -332,24 +338,33 @@ class FrameState:
         rows: ContactRows,
         lam: NDArray[np.float64],
         states: Mapping[str, BodyState],
+        friction: FrictionState | None = None,
+        anchors: Anchors | None = None,
     ) -> FrameResult:
         """Assemble the frame's result from the last state.
 
         A frame converged only where no node-to-surface contact is left inside by more
         than the tolerance and no support group passes its limit; otherwise
-        ``stop_reason`` says which.
+        ``stop_reason`` says which. ``rows`` and ``lam`` are the closed contacts' normal
+        rows and forces; ``friction`` their tangential rows and forces, where any.
         """
         e = self.matrices(rows) if len(rows) else {}
+        force_rows, force_lam = rows, lam
+        if friction is not None:
+            force_rows, force_lam = friction.rows, friction.lam
+        e_all = self.matrices(force_rows) if len(force_rows) else {}
         contact_force = {}
         for b in self.bodies:
-            eb = e.get(b.name)
-            f = eb.T @ lam if eb is not None else np.zeros(b.mesh.n_dofs)
+            eb = e_all.get(b.name)
+            f = eb.T @ force_lam if eb is not None else np.zeros(b.mesh.n_dofs)
             contact_force[b.name] = f.reshape(-1, 3)
         plane_forces = {}
         for pl in self.planes:
             idx = [i for i, p in enumerate(self.pairs) if p.master is pl]
-            sel = np.isin(rows.pair, idx)
-            plane_forces[pl.name] = -(lam[sel][:, None] * rows.normal[sel]).sum(axis=0)
+            sel = np.isin(force_rows.pair, idx)
+            plane_forces[pl.name] = -(force_lam[sel][:, None] * force_rows.normal[sel]).sum(
+                axis=0
+            )
         supports = {
             b.name: b.support_forces(states[b.name].reactions) for b in self.bodies if b.supports
         }
@@ -384,6 +399,15 @@ class FrameState:
             stop = limit_reason(over)
         self.timings["total"] = time.perf_counter() - self.t0
         names = np.array([p.name for p in self.pairs], dtype=object)
+        contacts = {
+            "pair": names[rows.pair] if len(rows) else np.zeros(0, dtype=object),
+            "node": rows.node.copy(),
+            "force": np.asarray(lam, dtype=np.float64).copy(),
+            "normal": rows.normal.copy(),
+        }
+        if friction is not None:
+            contacts.update(friction.per_contact())
+        fields = contact_fields(self.bodies, self.pairs, rows, lam, e, contact_force, friction)
         return FrameResult(
             converged=converged,
             stop_reason=stop,
@@ -395,16 +419,15 @@ class FrameState:
             obstacle_forces=plane_forces,
             support_forces=supports,
             over_limit=over,
-            contacts={
-                "pair": names[rows.pair] if len(rows) else np.zeros(0, dtype=object),
-                "node": rows.node.copy(),
-                "force": np.asarray(lam, dtype=np.float64).copy(),
-                "normal": rows.normal.copy(),
-            },
+            contacts=contacts,
             max_penetration=depth,
             penetration_ratio=ratio,
             separation_ratio=apart,
             timings=dict(self.timings),
+            friction=None if friction is None else friction.report,
+            held=held_verdict(self.bodies, converged, stop),
+            anchors=anchors,
+            contact_fields=fields,
         )
 
 

@@ -184,8 +184,9 @@ class FrameResult:
         Whether every free body is held (in balance under its contacts), None where the
         scene has no free body.
     anchors : object or None
-        The stick anchors to carry to the next frame
-        (:class:`contact.solver.anchors.Anchors`), None where every pair is frictionless.
+        Where each closed contact is anchored at the end of the frame, for Coulomb
+        friction in the next (:class:`contact.solver.anchors.Anchors`; a stuck contact
+        keeps its anchor, any other is anchored where it ended); None from the seed loop.
     contact_fields : dict of str to dict of str to ndarray
         Body name -> nodal fields of the contacts: ``normal_force`` ``(N,)`` (N),
         ``tangential_force`` ``(N, 3)`` (N), ``contact_status`` ``(N,)`` (0 none or open,

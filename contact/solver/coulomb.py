@@ -1,0 +1,137 @@
+"""The end of a frictional frame: its friction state, and why a free body is not held."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .delassus import ContactSpace
+from .fields import FrictionState
+from .friction import FRICTION_TOLERANCE, SLIP, STICK, FrictionResult, solve_friction
+from .results import FrictionReport
+from .rows import ContactRows
+from .tangential import Friction, tangent_basis
+
+__all__ = ["friction_state", "unheld"]
+
+#: A free body is not held where a soft spring in its rigid modes must carry more than
+#: this fraction of its loads or of its friction (held, it carries about the spring's
+#: stiffness over the contacts').
+UNBALANCED = 1e-3
+#: The spring's stiffness over the contacts' (the mean diagonal of the Delassus operator).
+SPRING = 1e-5
+
+
+def friction_state(
+    friction: Friction,
+    rows: ContactRows,
+    res: FrictionResult,
+    tangent: NDArray[np.int64],
+    keep: NDArray[np.bool_],
+) -> FrictionState:
+    """The closed contacts' friction after the frame's last solve of ``rows``."""
+    k = len(rows)
+    lam_n = res.lam[:k]
+    forces = friction.tangential_forces(rows, res.lam, tangent)
+    has = tangent[:, 0] >= 0
+    mu = np.where(has, friction.mu[rows.pair] if k else 0.0, 0.0)
+    size = np.linalg.norm(forces, axis=1)
+    cone = np.zeros(k)
+    on = has & (lam_n > 0)
+    cone[on] = size[on] / (mu[on] * lam_n[on])
+    slip = np.zeros(k)
+    slip[has] = np.linalg.norm(res.y[tangent[has]], axis=1)
+    closed_rows = rows.select(keep)
+    full, tangent_c, _ = friction.rows(closed_rows)
+    lam_c = np.zeros(len(full))
+    lam_c[: len(closed_rows)] = lam_n[keep]
+    kept_forces = forces[keep]
+    hc = np.flatnonzero(tangent_c[:, 0] >= 0)
+    if hc.size:
+        t1, t2 = tangent_basis(closed_rows.normal[hc])
+        f = kept_forces[hc]
+        lam_c[tangent_c[hc, 0]] = np.einsum("ij,ij->i", f, t1)
+        lam_c[tangent_c[hc, 1]] = np.einsum("ij,ij->i", f, t2)
+    status = res.status[keep]
+    frictional = has[keep]
+    pairs = friction.frame.pairs
+    per_pair: dict[str, NDArray[np.float64]] = {}
+    for i, pair in enumerate(pairs):
+        if pair.friction <= 0:
+            continue
+        sel = closed_rows.pair == i
+        total = kept_forces[sel].sum(axis=0)
+        per_pair[pair.name] = total
+        if pair.rigid:
+            name = pair.master.name
+            per_pair[name] = per_pair.get(name, np.zeros(3)) - total
+    report = FrictionReport(
+        iterations=friction.iterations,
+        residual=float(res.residual),
+        tolerance=FRICTION_TOLERANCE,
+        stick=int(((status == STICK) & frictional).sum()),
+        slip=int(((status == SLIP) & frictional).sum()),
+        max_slip=float(slip[keep][frictional].max(initial=0.0)),
+        max_cone_use=float(cone[keep].max(initial=0.0)),
+        tangential_force=per_pair,
+    )
+    return FrictionState(
+        rows=full,
+        lam=lam_c,
+        tangential=kept_forces,
+        status=status,
+        cone_use=cone[keep],
+        slip=slip[keep],
+        report=report,
+    )
+
+
+def unheld(frame, space: ContactSpace, friction: Friction, rows: ContactRows) -> str | None:
+    """``"not held: ..."`` where the last solve found no balance for a free body, else None.
+
+    Called when the frictional solve did not settle. The same contacts are solved with each
+    free body held by a soft spring in its rigid modes (:data:`SPRING`), a problem that
+    always has a solution: where the body is held the spring carries almost nothing, where
+    it is not the spring carries the load the contacts could not. The message names the
+    body, that load (N) and the way it slips, and the friction available (the sum of ``mu
+    N`` over its contacts).
+    """
+    sys_, mu, tangent = friction.system
+    g, c = sys_.g, sys_.c
+    if not g.shape[1]:
+        return None
+    dw = float(np.mean(np.diag(sys_.w)))
+    dg = float(np.mean(np.einsum("ij,ij->i", g, g)))
+    soft = SPRING * dg / max(dw, 1e-300)  # spring stiffness in the modes' units
+    w = sys_.w + (g @ g.T) / soft
+    rhs = sys_.rhs + g @ c / soft
+    res = solve_friction(w, np.zeros((w.shape[0], 0)), rhs, np.zeros(0), mu=mu,
+                         tangent=tangent)
+    carried = g.T @ res.lam - c  # what the springs hold, in the modes
+    k = 0
+    worst: tuple[float, str] | None = None
+    for body in frame.bodies:
+        if not body.solver.free_body:
+            continue
+        phi = space.placing(body)
+        r = phi.shape[1]
+        f = (phi @ carried[k : k + r]).reshape(-1, 3).sum(axis=0)
+        k += r
+        size = float(np.linalg.norm(f))
+        mine = np.zeros(len(rows))
+        for i, pair in enumerate(frame.pairs):
+            if pair.slave is body or pair.master is body:
+                mine[rows.pair == i] = pair.friction
+        capacity = float(np.sum(mine * res.lam[: len(rows)]))
+        load = float(np.linalg.norm(body.loads.reshape(-1, 3).sum(axis=0)))
+        if size <= UNBALANCED * max(load, capacity, 1e-300):
+            continue
+        way = f / size  # the net force the contacts leave: the way it slips
+        text = (
+            f"not held: {body.name} slips along ({way[0]:.3f}, {way[1]:.3f}, {way[2]:.3f}): "
+            f"{size:.4g} N of its load is not carried by its contacts (friction available "
+            f"sum mu N = {capacity:.4g} N)"
+        )
+        if worst is None or size > worst[0]:
+            worst = (size, text)
+    return None if worst is None else worst[1]

@@ -1,0 +1,110 @@
+"""What a frame reports of its contacts: nodal contact fields, friction's state, held or not."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+from .body import ElasticBody
+from .pairs import ContactPair
+from .results import FrictionReport
+from .rows import ContactRows
+
+__all__ = ["FrictionState", "contact_fields", "held_verdict"]
+
+
+@dataclass(frozen=True)
+class FrictionState:
+    """The closed contacts' friction at the end of a frame.
+
+    Attributes
+    ----------
+    rows : ContactRows
+        The closed contacts' normal rows, then their tangential rows.
+    lam : ndarray
+        The forces of ``rows`` (N).
+    tangential : ndarray, shape (k, 3)
+        Each closed contact's tangential force on its slave node (N).
+    status : ndarray of int, shape (k,)
+        1 stick, 2 slip.
+    cone_use : ndarray, shape (k,)
+        ``|t| / (mu n)`` (0 where frictionless).
+    slip : ndarray, shape (k,)
+        Slip increment since the anchor (m).
+    report : FrictionReport
+    """
+
+    rows: ContactRows
+    lam: NDArray[np.float64]
+    tangential: NDArray[np.float64]
+    status: NDArray[np.int64]
+    cone_use: NDArray[np.float64]
+    slip: NDArray[np.float64]
+    report: FrictionReport
+
+    def per_contact(self) -> dict[str, NDArray]:
+        """The per-contact arrays of :attr:`FrameResult.contacts`."""
+        return {
+            "tangential": self.tangential,
+            "status": self.status,
+            "cone_use": self.cone_use,
+            "slip": self.slip,
+        }
+
+
+def contact_fields(
+    bodies: Sequence[ElasticBody],
+    pairs: Sequence[ContactPair],
+    rows: ContactRows,
+    lam: NDArray[np.float64],
+    e: Mapping[str, sp.csr_matrix],
+    contact_force: Mapping[str, NDArray[np.float64]],
+    friction: FrictionState | None,
+) -> dict[str, dict[str, NDArray]]:
+    """Every body's nodal contact fields (see :attr:`FrameResult.contact_fields`).
+
+    The normal force of a node is the size of what the normal rows put on it, its
+    tangential force the rest of its contact force; status and cone use are a slave
+    node's, the largest over its contacts (a frictionless closed contact slips).
+    """
+    status = np.full(len(rows), 2, np.int64)
+    cone = np.zeros(len(rows))
+    if friction is not None:
+        status, cone = friction.status, friction.cone_use
+    out = {}
+    for b in bodies:
+        n = b.mesh.n_points
+        eb = e.get(b.name)
+        fn = (eb.T @ lam).reshape(-1, 3) if eb is not None else np.zeros((n, 3))
+        st = np.zeros(n, np.int64)
+        cu = np.zeros(n)
+        mine = np.array([p.slave is b for p in pairs], dtype=bool)
+        sel = mine[rows.pair] if len(rows) else np.zeros(0, bool)
+        np.maximum.at(st, rows.node[sel], status[sel])
+        np.maximum.at(cu, rows.node[sel], cone[sel])
+        out[b.name] = {
+            "normal_force": np.linalg.norm(fn, axis=1),
+            "tangential_force": np.asarray(contact_force[b.name]) - fn,
+            "contact_status": st,
+            "cone_use": cu,
+        }
+    return out
+
+
+def held_verdict(bodies: Sequence[ElasticBody], converged: bool, stop: str) -> bool | None:
+    """Whether every free body is held: None with no free body or where the frame says nothing.
+
+    False where the frame stopped as not held; True where it converged or stopped only
+    for a bone's force (the body is still held).
+    """
+    if not any(b.solver.free_body for b in bodies):
+        return None
+    if stop.startswith("not held"):
+        return False
+    if converged or stop.startswith("bone force limit"):
+        return True
+    return None

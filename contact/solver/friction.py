@@ -1,0 +1,271 @@
+"""Coulomb friction of a linearised contact set: a semismooth Newton method in contact space.
+
+Each contact ``i`` has a normal row ``p`` and, where its pair has friction, two tangential
+rows ``t = (t1, t2)``. With the Delassus operator ``W`` and the free bodies' rigid modes
+``G`` (:mod:`contact.solver.delassus`), the rows' values are ``y = W lambda + G a - rhs``:
+the normal gap ``g = y_p`` and the tangential slip increment ``s = y_t`` (the slave node's
+motion relative to its anchor, :mod:`contact.solver.anchors`). Coulomb's law, with its
+isotropic cone and no regularisation::
+
+    g >= 0,  lambda_p >= 0,  g lambda_p = 0                     (unilateral contact)
+    |lambda_t| <= mu lambda_p                                   (the cone)
+    s = 0 where |lambda_t| < mu lambda_p                        (stick)
+    lambda_t = -mu lambda_p s / |s| where s != 0                (slip, opposed to it)
+    G^T lambda = c                                              (free bodies in balance)
+
+is written as the root of the Alart-Curnier natural map (Alart and Curnier 1991), with
+``xi = lambda_p - c_p g`` and ``z = lambda_t - c_t s``::
+
+    F_p = lambda_p - max(0, xi)
+    F_t = lambda_t - proj_{|.| <= mu max(0, xi)}(z)
+
+and solved by a semismooth Newton method: each step is the primal-dual active set of
+Hueber, Stadler and Wohlmuth (2008) (open, stick and slip contacts read off ``xi`` and
+``z``), with the slip derivative of the projection, then a backtracking line search on
+``|F|^2``. ``c_p`` and ``c_t`` are the inverse diagonal compliances, which makes every
+residual a force. Where ``mu = 0`` everywhere the frictionless LCP
+(:mod:`contact.solver.lcp`) is used instead.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+from numpy.typing import NDArray
+
+from fem.threads import dense_threads
+
+__all__ = ["FRICTION_TOLERANCE", "FrictionResult", "solve_friction"]
+
+#: Residual of the natural map, over the force scale, below which a solve has converged.
+FRICTION_TOLERANCE = 1e-9
+#: Newton steps before a solve gives up (an unload that reverses the slip takes the most).
+MAX_NEWTON = 80
+
+#: Weight of the free bodies' balance in the line search's merit ``|F|^2``. It changes no
+#: Newton step and no solution; where no balance exists (a load past the friction the
+#: contacts can give) the search settles with the contact law met and the balance left
+#: unmet, so that what is left unbalanced is the load the contacts could not carry.
+BALANCE_WEIGHT = 1e-3
+
+OPEN, STICK, SLIP = 0, 1, 2
+
+
+@dataclass(frozen=True)
+class FrictionResult:
+    """Forces of the candidate rows, the free bodies' amplitudes and each contact's status.
+
+    Attributes
+    ----------
+    lam : ndarray, shape (M,)
+        Row forces: normal ones ``>= 0``, tangential ones in their cone.
+    a : ndarray, shape (r,)
+        Rigid-mode amplitudes.
+    y : ndarray, shape (M,)
+        Row values ``W lam + G a - rhs``: normal gaps, tangential slip increments.
+    status : ndarray of int, shape (k,)
+        0 open, 1 stick, 2 slip (a frictionless closed contact slips).
+    iterations : int
+        Newton steps taken.
+    residual : float
+        ``max |F|`` over the force scale at the end.
+    solved : bool
+        The residual reached ``tol``.
+    unbalanced : ndarray, shape (r,)
+        ``G^T lam - c`` at the end: the free bodies' load the contacts did not carry.
+    """
+
+    lam: NDArray[np.float64]
+    a: NDArray[np.float64]
+    y: NDArray[np.float64]
+    status: NDArray[np.int64]
+    iterations: int
+    residual: float
+    solved: bool
+    unbalanced: NDArray[np.float64]
+
+
+class _Problem:
+    """The natural map of one contact set and its generalised Jacobian."""
+
+    def __init__(self, w, g, rhs, c, mu, tangent) -> None:
+        self.w, self.g, self.rhs, self.c = w, g, rhs, c
+        self.k = mu.size
+        self.m, self.r = g.shape
+        self.mu = mu
+        self.fr = np.flatnonzero(tangent[:, 0] >= 0)  # contacts with friction
+        self.t = tangent[self.fr]  # (kf, 2) their tangential rows
+        d = np.diag(w).copy()
+        floor = 1e-12 * max(float(d.max(initial=0.0)), 1e-300)
+        self.cp = 1.0 / np.maximum(d[: self.k], floor)
+        dt = d[self.t].mean(axis=1) if self.fr.size else np.zeros(0)
+        self.ct = 1.0 / np.maximum(dt, floor)
+
+    def values(self, lam: NDArray, a: NDArray) -> NDArray:
+        return self.w @ lam + self.g @ a - self.rhs
+
+    def residual(self, lam: NDArray, a: NDArray) -> tuple[NDArray, dict]:
+        """``F`` (M + r) and what its Jacobian needs."""
+        k, fr, t = self.k, self.fr, self.t
+        y = self.values(lam, a)
+        xi = lam[:k] - self.cp * y[:k]
+        closed = xi > 0
+        f = np.empty(self.m + self.r)
+        f[:k] = np.where(closed, self.cp * y[:k], lam[:k])
+        radius = self.mu[fr] * np.maximum(xi[fr], 0.0)
+        lt = lam[t]  # (kf, 2)
+        z = lt - self.ct[:, None] * y[t]
+        nz = np.linalg.norm(z, axis=1)
+        stick = (nz <= radius) & (radius > 0)
+        q = z / np.maximum(nz, 1e-300)[:, None]
+        ft = np.where(stick[:, None], self.ct[:, None] * y[t], lt - radius[:, None] * q)
+        f[t.ravel()] = ft.ravel()
+        # rows of the system that belong to no contact's normal or tangent: none
+        f[self.m :] = BALANCE_WEIGHT * (self.g.T @ lam - self.c)
+        return f, {"closed": closed, "stick": stick, "q": q, "nz": nz, "radius": radius, "y": y}
+
+    def jacobian(self, s: dict) -> NDArray:
+        k, m, r, fr, t = self.k, self.m, self.r, self.fr, self.t
+        n = m + r
+        j = np.zeros((n, n))
+        wg = np.hstack([self.w, self.g])  # (m, n): d y / d(lam, a)
+        closed = s["closed"]
+        rows = np.arange(k)
+        j[rows[closed], :] = self.cp[closed, None] * wg[rows[closed]]
+        j[rows[~closed], rows[~closed]] = 1.0
+        stick, q, nz, radius = s["stick"], s["q"], s["nz"], s["radius"]
+        for c_, (ti, p) in enumerate(zip(t, fr)):
+            if stick[c_]:
+                j[ti, :] = self.ct[c_] * wg[ti]
+                continue
+            # slip (or an open contact: radius 0, F_t = lam_t)
+            jt = np.zeros((2, n))
+            jt[0, ti[0]] = jt[1, ti[1]] = 1.0
+            if radius[c_] > 0:
+                qc = q[c_]
+                dxi = -self.cp[p] * wg[p]
+                dxi[p] += 1.0
+                dz = jt.copy() - self.ct[c_] * wg[ti]
+                proj = np.eye(2) - np.outer(qc, qc)
+                jt = jt - self.mu[p] * np.outer(qc, dxi) - (radius[c_] / nz[c_]) * proj @ dz
+            j[ti, :] = jt
+        j[m:, :m] = BALANCE_WEIGHT * self.g.T
+        return j
+
+
+def _size(f: NDArray, m: int) -> float:
+    """``max |F|`` with the balance rows unweighted (:data:`BALANCE_WEIGHT`): forces (N)."""
+    return max(
+        float(np.abs(f[:m]).max(initial=0.0)),
+        float(np.abs(f[m:]).max(initial=0.0)) / BALANCE_WEIGHT,
+    )
+
+
+def _step(j: NDArray, f: NDArray) -> NDArray:
+    """Newton step ``J d = -F``; least squares where ``J`` is singular (a mode nothing holds)."""
+    try:
+        lu = sla.lu_factor(j, check_finite=False)
+        d = sla.lu_solve(lu, -f, check_finite=False)
+        if np.isfinite(d).all() and np.linalg.norm(j @ d + f) <= 1e-8 * max(
+            np.linalg.norm(f), 1e-300
+        ):
+            return d
+    except (np.linalg.LinAlgError, ValueError):
+        pass
+    return np.linalg.lstsq(j, -f, rcond=1e-12)[0]
+
+
+def solve_friction(
+    w: NDArray[np.float64],
+    g: NDArray[np.float64],
+    rhs: NDArray[np.float64],
+    c: NDArray[np.float64],
+    *,
+    mu: NDArray[np.float64],
+    tangent: NDArray[np.int64],
+    start: NDArray[np.float64] | None = None,
+    load_scale: float = 0.0,
+    tol: float = FRICTION_TOLERANCE,
+    max_steps: int = MAX_NEWTON,
+) -> FrictionResult:
+    """Solve the frictional contact problem of a contact set (see the module docstring).
+
+    Parameters
+    ----------
+    w : ndarray, shape (M, M)
+        Delassus operator of every row: the ``k`` normal rows first (row ``i`` is contact
+        ``i``'s), then the tangential ones.
+    g : ndarray, shape (M, r)
+        The rows' values of the free bodies' rigid modes.
+    rhs : ndarray, shape (M,)
+        Minus the rows' values without contact forces.
+    c : ndarray, shape (r,)
+        Minus the loads in the rigid modes.
+    mu : ndarray, shape (k,)
+        Each contact's coefficient.
+    tangent : ndarray of int, shape (k, 2)
+        Each contact's two tangential rows, -1 where it has none (``mu = 0``).
+    start : ndarray, shape (M,), optional
+        Forces to start from (the last solve's, carried over).
+    load_scale : float
+        Size of the free bodies' loads (for the residual's scale).
+    tol : float
+        Residual to reach, relative to the force scale.
+    max_steps : int
+        Newton steps before giving up.
+
+    Returns
+    -------
+    FrictionResult
+    """
+    with dense_threads(np.size(rhs)):
+        return _newton(w, g, rhs, c, np.asarray(mu, float), np.asarray(tangent, np.int64),
+                       start, load_scale, tol, max_steps)
+
+
+def _newton(w, g, rhs, c, mu, tangent, start, load_scale, tol, max_steps) -> FrictionResult:
+    prob = _Problem(w, g, rhs, c, mu, tangent)
+    m, r, k = prob.m, prob.r, prob.k
+    lam = np.zeros(m) if start is None else np.asarray(start, float).copy()
+    lam[:k] = np.maximum(lam[:k], 0.0)
+    a = np.zeros(r)
+    if start is None:
+        # start from the rows that penetrate without forces, closed and stuck
+        lam[:k] = np.maximum(prob.cp * rhs[:k], 0.0)
+    f, s = prob.residual(lam, a)
+    scale = max(float(np.abs(prob.cp * rhs[:k]).max(initial=0.0)), load_scale, 1e-300)
+    steps = 0
+    res = _size(f, m) / max(scale, float(np.abs(lam).max(initial=0.0)))
+    while res > tol and steps < max_steps:
+        d = _step(prob.jacobian(s), f)
+        merit = float(f @ f)
+        x0 = np.concatenate([lam, a])
+        step = 1.0
+        while True:
+            x = x0 + step * d
+            f1, s1 = prob.residual(x[:m], x[m:])
+            if float(f1 @ f1) <= (1.0 - 1e-4 * step) * merit or step < 1e-6:
+                break
+            step *= 0.5
+        lam, a, f, s = x[:m], x[m:], f1, s1
+        steps += 1
+        res = _size(f, m) / max(scale, float(np.abs(lam).max(initial=0.0)))
+    status = np.where(s["closed"], SLIP, OPEN).astype(np.int64)
+    status[prob.fr[s["stick"] & s["closed"][prob.fr]]] = STICK
+    if res <= tol:
+        # an open contact's forces are zero to the tolerance: make them exactly zero
+        lam = lam.copy()
+        lam[: prob.k][status == OPEN] = 0.0
+        lam[prob.t[status[prob.fr] == OPEN].ravel()] = 0.0
+    return FrictionResult(
+        lam=lam,
+        a=a,
+        y=s["y"],
+        status=status,
+        iterations=steps,
+        residual=res,
+        solved=res <= tol,
+        unbalanced=g.T @ lam - c,
+    )

@@ -1,0 +1,274 @@
+"""Coulomb friction in a frame: tangential rows against stick anchors, solved with the normal rows.
+
+Each frictional contact gets two tangential rows beside its normal row, along a tangent
+basis ``t1, t2`` of its normal (:func:`tangent_basis`). A tangential row is built like a
+normal row (the slave node ``+t``, the master's points ``-w_k t``), with the anchor's
+facet and weights in place of the closest point's and the node-to-anchor offset in place
+of the gap, so that its value is the slip increment since the anchor along ``t``
+(:mod:`contact.solver.anchors`). A contact found for the first time in a frame is
+anchored where it is found. At the end of the frame a contact that stuck keeps its
+anchor and one that slipped is anchored where it ended.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .anchors import Anchors
+from .delassus import BodyState, ContactSpace
+from .friction import FrictionResult, solve_friction
+from .rows import ContactRows
+
+__all__ = ["Friction", "end_anchors", "tangent_basis"]
+
+_Key = tuple[int, int]
+
+
+def tangent_basis(normal: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+    """Unit tangents ``t1 = n x e / |n x e|`` and ``t2 = n x t1`` of unit normals ``(m, 3)``.
+
+    ``e`` is the coordinate axis least aligned with ``n``: the same basis for the same
+    normal everywhere, never degenerate.
+    """
+    n = np.asarray(normal, dtype=np.float64).reshape(-1, 3)
+    e = np.eye(3)[np.argmin(np.abs(n), axis=1)]
+    t1 = np.cross(n, e)
+    t1 /= np.linalg.norm(t1, axis=1)[:, None]
+    return t1, np.cross(n, t1)
+
+
+class Friction:
+    """The frictional contacts of a frame: their anchors, tangential rows and solve.
+
+    Parameters
+    ----------
+    frame : FrameState
+        The frame (its pairs give each contact's coefficient).
+    anchors : Anchors, optional
+        Where contacts stuck at the end of the previous frame.
+    """
+
+    def __init__(self, frame, anchors: Anchors | None = None) -> None:
+        self.frame = frame
+        self.mu = np.array([float(p.friction) for p in frame.pairs])
+        self.active = bool((self.mu > 0).any())
+        index = {p.name: i for i, p in enumerate(frame.pairs)}
+        self.anchor: dict[_Key, tuple[NDArray, NDArray, NDArray]] = {}
+        if anchors is not None:
+            for k in range(len(anchors)):
+                i = index.get(str(anchors.pair[k]))
+                if i is not None and self.mu[i] > 0:
+                    key = (i, int(anchors.node[k]))
+                    self.anchor[key] = (anchors.facet[k], anchors.weights[k], anchors.point[k])
+        self.iterations = 0
+        self.last: FrictionResult | None = None
+        self.system: tuple | None = None
+
+    # ------------------------------------------------------------------ anchors
+    def register(self, rows: ContactRows, u: dict[str, NDArray]) -> None:
+        """Anchor every frictional contact of ``rows`` met for the first time where it is now."""
+        pairs = self.frame.pairs
+        for i in np.flatnonzero(self.mu[rows.pair] > 0):
+            key = (int(rows.pair[i]), int(rows.node[i]))
+            if key in self.anchor:
+                continue
+            pair = pairs[key[0]]
+            if pair.rigid:
+                x = pair.slave.mesh.points[key[1]] + u[pair.slave.name][key[1]]
+                point = pair.master.project(x[None])[0] - pair.master.motion
+                self.anchor[key] = (np.full(3, -1, np.int64), np.zeros(3), point)
+            else:
+                self.anchor[key] = (
+                    rows.m_nodes[i, :3].copy(), rows.m_coef[i, :3].copy(), np.full(3, np.nan)
+                )
+
+    def _anchor_points(self, keys: list[_Key]) -> NDArray[np.float64]:
+        """Anchors' positions at the frame's reference (the master's reference points)."""
+        pairs = self.frame.pairs
+        out = np.empty((len(keys), 3))
+        for j, key in enumerate(keys):
+            facet, w, point = self.anchor[key]
+            master = pairs[key[0]].master
+            if pairs[key[0]].rigid:
+                out[j] = point + master.motion
+            else:
+                out[j] = w @ master.mesh.points[facet]
+        return out
+
+    # ------------------------------------------------------------------ rows
+    def rows(self, rows: ContactRows) -> tuple[ContactRows, NDArray[np.int64], NDArray]:
+        """The normal rows followed by the frictional contacts' tangential rows.
+
+        Returns
+        -------
+        full : ContactRows
+            ``rows``, then two tangential rows per frictional contact (a node with
+            several rows in a pair gets them at its first).
+        tangent : ndarray of int, shape (k, 2)
+            Each contact's tangential rows in ``full``, -1 where it has none.
+        mu : ndarray, shape (k,)
+            Each contact's coefficient (0 where it has no tangential rows).
+        """
+        k = len(rows)
+        mu = self.mu[rows.pair] if k else np.zeros(0)
+        seen: set[_Key] = set()
+        fr = []
+        for i in np.flatnonzero(mu > 0):
+            key = (int(rows.pair[i]), int(rows.node[i]))
+            if key not in seen:
+                seen.add(key)
+                fr.append(i)
+        fr_idx = np.asarray(fr, dtype=np.int64)
+        mu = np.where(np.isin(np.arange(k), fr_idx), mu, 0.0)
+        tangent = np.full((k, 2), -1, np.int64)
+        if not fr_idx.size:
+            return rows, tangent, mu
+        keys = [(int(rows.pair[i]), int(rows.node[i])) for i in fr_idx]
+        kf = fr_idx.size
+        tangent[fr_idx] = k + np.arange(2 * kf).reshape(kf, 2)
+        t1, t2 = tangent_basis(rows.normal[fr_idx])
+        dirs = np.stack([t1, t2], axis=1).reshape(-1, 3)
+        slave_x = np.array(
+            [self.frame.pairs[p].slave.mesh.points[nd] for p, nd in keys]
+        ).reshape(-1, 3)
+        offset = slave_x - self._anchor_points(keys)
+        g0 = np.einsum("mj,mkj->mk", offset, np.stack([t1, t2], axis=1)).ravel()
+        facets = np.array([self.anchor[key][0] for key in keys], dtype=np.int64)
+        weights = np.array([self.anchor[key][1] for key in keys])
+        tangential = ContactRows(
+            np.repeat(rows.pair[fr_idx], 2),
+            np.repeat(rows.node[fr_idx], 2),
+            dirs,
+            g0,
+            np.repeat(rows.s_nodes[fr_idx], 2, axis=0),
+            np.repeat(rows.s_coef[fr_idx], 2, axis=0),
+            np.repeat(facets, 2, axis=0),
+            np.repeat(weights, 2, axis=0),
+        )
+        return rows.joined(tangential), tangent, mu
+
+    # ------------------------------------------------------------------ solve
+    def solve(
+        self,
+        space: ContactSpace,
+        rows: ContactRows,
+        start: NDArray[np.float64] | None,
+        carried: dict[_Key, NDArray[np.float64]] | None = None,
+    ) -> tuple[FrictionResult, dict[str, BodyState], dict, ContactRows, NDArray[np.int64]]:
+        """Forces of the normal and tangential rows of ``rows`` and every body's state.
+
+        ``start`` holds the normal rows' starting forces, ``carried`` each contact's
+        tangential force vector from the last solve.
+        """
+        full, tangent, mu = self.rows(rows)
+        e = self.frame.matrices(full)
+        sys_ = space.system(e, full.g0)
+        lam0 = None
+        if start is not None:
+            lam0 = np.zeros(len(full))
+            lam0[: len(rows)] = start
+            if carried:
+                has = np.flatnonzero(tangent[:, 0] >= 0)
+                t1, t2 = tangent_basis(rows.normal[has])
+                for j, i in enumerate(has):
+                    f = carried.get((int(rows.pair[i]), int(rows.node[i])))
+                    if f is not None:
+                        lam0[tangent[i]] = (f @ t1[j], f @ t2[j])
+        res = solve_friction(
+            sys_.w, sys_.g, sys_.rhs, sys_.c, mu=mu, tangent=tangent, start=lam0,
+            load_scale=sys_.load_scale,
+        )
+        self.iterations += res.iterations
+        self.last = res
+        self.system = (sys_, mu, tangent)
+        return res, space.states(e, res.lam, res.a), e, full, tangent
+
+    def tangential_forces(
+        self, rows: ContactRows, lam: NDArray[np.float64], tangent: NDArray[np.int64]
+    ) -> NDArray[np.float64]:
+        """Each contact's tangential force vector on its slave node ``(k, 3)`` (N)."""
+        out = np.zeros((len(rows), 3))
+        has = np.flatnonzero(tangent[:, 0] >= 0)
+        if has.size:
+            t1, t2 = tangent_basis(rows.normal[has])
+            out[has] = lam[tangent[has, 0], None] * t1 + lam[tangent[has, 1], None] * t2
+        return out
+
+    def carry(
+        self, rows: ContactRows, lam: NDArray[np.float64], tangent: NDArray[np.int64]
+    ) -> dict[_Key, NDArray[np.float64]]:
+        """Each contact's tangential force vector, by its key, to start the next solve."""
+        forces = self.tangential_forces(rows, lam, tangent)
+        has = np.flatnonzero(tangent[:, 0] >= 0)
+        return {(int(rows.pair[i]), int(rows.node[i])): forces[i] for i in has}
+
+    def anchors_after(
+        self,
+        rows: ContactRows,
+        status: NDArray[np.int64],
+        tangent: NDArray[np.int64],
+        u: dict[str, NDArray],
+    ) -> Anchors:
+        """The anchors to carry: a stuck contact keeps its own, any other moves to where it is.
+
+        Only closed contacts are kept (``status`` 1 or 2); frictionless ones are anchored
+        too, for a later frame whose friction is switched on.
+        """
+        closed = np.flatnonzero(status > 0)
+        own = {}
+        for i in closed:
+            key = (int(rows.pair[i]), int(rows.node[i]))
+            if status[i] == 1 and tangent[i, 0] >= 0 and key in self.anchor:
+                own[int(i)] = self.anchor[key]
+        return end_anchors(self.frame, rows.select(status > 0), u, own_of(closed, own))
+
+
+def own_of(closed: NDArray[np.int64], own: dict[int, tuple]) -> dict[int, tuple]:
+    """``own`` renumbered from row indices to positions among ``closed``."""
+    where = {int(i): j for j, i in enumerate(closed)}
+    return {where[i]: a for i, a in own.items()}
+
+
+def end_anchors(
+    frame, rows: ContactRows, u: dict[str, NDArray], own: dict[int, tuple] | None = None
+) -> Anchors:
+    """Anchors of contacts ``rows`` where their slave nodes are at displacements ``u``.
+
+    A plane's is the node's projection on it; a body's the closest point of its deformed
+    surface (the facet and weights the measure finds). ``own`` maps a row to an anchor it
+    keeps instead (a contact that stuck).
+    """
+    own = own or {}
+    pairs = frame.pairs
+    k = len(rows)
+    facets = np.full((k, 3), -1, np.int64)
+    weights = np.zeros((k, 3))
+    points = np.full((k, 3), np.nan)
+    for i in np.unique(rows.pair):
+        pair = pairs[int(i)]
+        sel = np.flatnonzero(rows.pair == i)
+        nodes = rows.node[sel]
+        if pair.rigid:
+            x = pair.slave.mesh.points[nodes] + u[pair.slave.name][nodes]
+            points[sel] = pair.master.project(x) - pair.master.motion
+        else:
+            found = frame.measure_pair(int(i), u, frame.margin)
+            at = {int(n): j for j, n in enumerate(found.nodes)}
+            for r, n in zip(sel, nodes):
+                hit = at.get(int(n))
+                if hit is not None:
+                    facets[r] = found.facet[hit]
+                    weights[r] = found.weights[hit]
+                elif rows.m_nodes.shape[1] >= 3:
+                    facets[r] = rows.m_nodes[r, :3]  # out of reach: where its row was taken
+                    weights[r] = rows.m_coef[r, :3]
+    for r, (facet, w, point) in own.items():
+        facets[r], weights[r], points[r] = facet, w, point
+    return Anchors(
+        pair=np.array([pairs[int(i)].name for i in rows.pair], dtype=object),
+        node=rows.node.copy(),
+        facet=facets,
+        weights=weights,
+        point=points,
+    )
