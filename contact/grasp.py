@@ -7,6 +7,10 @@ one log line each. Exit status: 0 when every frame converged with every bone und
 limit, 1 when a frame did not converge or a bone passed its limit (everything is still
 written), 2 for bad input (one line on stderr naming the file, key or element; nothing
 written).
+
+With friction every frame depends on the frames before it (where each contact stuck), so
+``--frames`` replays the history: every frame from the first up to the last one asked for
+is solved, in time order, and only those asked for are written.
 """
 
 from __future__ import annotations
@@ -58,7 +62,8 @@ def run(
     out : str or Path, optional
         Results folder; default the scene's ``output.directory``.
     frames : sequence of int, optional
-        Indices of the frames to solve; default all.
+        Indices of the frames to write; default all. Without friction only these are
+        solved; with friction every frame up to the last of them is solved, in order.
     pictures : bool, optional
         Render pictures; default the scene's ``output.pictures``.
     quiet : bool
@@ -95,11 +100,16 @@ def run(
     except (ContactError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    bar = _progress(len(chosen), quiet)
+    solved = chosen
+    if scene.frictional and frames is not None:
+        # the history of stick anchors: solve from the first frame, in order
+        chosen = sorted(set(chosen))
+        solved = list(range(chosen[-1] + 1)) if chosen else []
+    bar = _progress(len(solved), quiet)
     status = 0
     try:
         run_ = GraspRun(scene)
-        for i in chosen:
+        for i in solved:
             t = times[i]
             bar.set_description(f"t = {t:g}")
 
@@ -108,7 +118,11 @@ def run(
                     iteration=rec.iteration, change=f"{rec.max_change:.2e}", refresh=True
                 )
 
-            result, extra, planes, solved = run_.frame(t, tell)
+            result, extra, planes, frame_bodies = run_.frame(t, tell)
+            if i not in chosen:
+                log.info("t = %g: replayed for the friction history (not written)", t)
+                bar.update(1)
+                continue
             # the hand drawn half transparent, so that the ball's stress shows through
             bodies = {
                 b.name: BodyFrame(
@@ -118,7 +132,7 @@ def run(
                     bbar=b.bbar,
                     nodal_pressure=b.nodal_pressure,
                 )
-                for b in solved
+                for b in frame_bodies
             }
             entry = writer.add_frame(
                 i,
@@ -183,7 +197,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         metavar="I",
         type=int,
         nargs="+",
-        help="solve only these frames (0-based indices into the scene's frame times)",
+        help="write only these frames (0-based indices into the scene's frame times); "
+        "without friction only they are solved, with friction every frame up to the last "
+        "of them is solved in order, since each depends on those before it",
     )
     ap.add_argument(
         "--no-pictures", action="store_true", help="write no PNG frames, GIF or stress pictures"

@@ -8,11 +8,14 @@ For every frame, after Gourret, Magnenat-Thalmann and Thalmann (1989, Fig. 9):
    and every flesh node mapped by JLD; the ball placed (it may follow a joint); the
    planes moved;
 2. to 5. the contact iteration (:func:`contact.solver.iteration.solve_frame`), in contact
-   space by default or as the paper's literal loop.
+   space by default or as the paper's literal loop; each pair with its Coulomb
+   coefficient (:meth:`contact.scene.Scene.friction`).
 
 :class:`GraspRun` keeps what lasts across frames: the ball is factored once per scene
-(again only when a joint turns it), the hand once per pose, and the previous pose
-warm-starts the next. Writing the results is the caller's (:mod:`contact.grasp`).
+(again only when a joint turns it), the hand once per pose, the previous pose
+warm-starts the next, and friction's stick anchors of the last frame solved are where the
+next frame's slip is measured from. Frames must therefore be solved in time order when
+the scene has friction. Writing the results is the caller's (:mod:`contact.grasp`).
 """
 
 from __future__ import annotations
@@ -37,7 +40,8 @@ from .hand.keyframes import Keyframes
 from .hand.objects import ObjectAssociation
 from .hand.posing import HandPoser, Pose
 from .hand.shipped import load_hand
-from .scene.read import Scene
+from .scene.spec import Scene
+from .solver.anchors import Anchors
 from .solver.body import ElasticBody
 from .solver.iteration import solve_frame
 from .solver.pairs import ContactPair
@@ -54,7 +58,7 @@ class GraspRun:
 
     Parameters
     ----------
-    scene : contact.scene.read.Scene
+    scene : contact.scene.Scene
         The loaded scene.
 
     Attributes
@@ -65,6 +69,10 @@ class GraspRun:
         The shipped hand, with its poser and keyframes, when the scene has one.
     limits : dict of str to float
         Force limit of each bone that holds flesh nodes (N); empty without a hand.
+    anchors : Anchors or None
+        Where each frictional contact stuck at the end of the last frame solved (its
+        :attr:`FrameResult.anchors`), carried into the next :meth:`frame`; None before the
+        first frame and without friction. Set it to None to start a history afresh.
     """
 
     scene: Scene
@@ -74,6 +82,7 @@ class GraspRun:
     _hand_body: ElasticBody | None = field(default=None, init=False)
     _hand_key: bytes = field(default=b"", init=False)
     _pose: Pose | None = field(default=None, init=False)
+    anchors: Anchors | None = field(default=None, init=False)
 
     def __post_init__(self) -> None:
         sc = self.scene
@@ -229,7 +238,7 @@ class GraspRun:
     def frame(
         self, t: float, callback: Callable[[IterationRecord], None] | None = None
     ) -> tuple[FrameResult, dict, list[Plane], list[ElasticBody]]:
-        """Set up and solve the frame at time ``t``.
+        """Set up and solve the frame at time ``t``, from the last frame's anchors.
 
         Parameters
         ----------
@@ -261,17 +270,22 @@ class GraspRun:
             hand = self.hand_body(angles)
             self.check_bones(ball, t)
             bodies.append(hand)
-            pairs += [ContactPair(ball, hand), ContactPair(hand, ball)]
+            mu = sc.friction("hand")
+            pairs += [ContactPair(ball, hand, friction=mu), ContactPair(hand, ball, friction=mu)]
             extra["angles"] = angles
             if self.auto_flexed:
                 extra["auto_flexion"] = self.auto_flexed
             assert self._pose is not None
             extra["min_tet_quality"] = float(self._pose.min_quality)
         planes = [Plane(p.point, p.normal, motion=p.offset(t), name=p.name) for p in sc.planes]
-        pairs = [ContactPair(ball, p) for p in planes] + pairs
+        pairs = [ContactPair(ball, p, friction=sc.friction(p.name)) for p in planes] + pairs
         setup = time.perf_counter() - t0
         # steps 2 to 5
         settings = sc.solver.settings(self.limits)
-        result = solve_frame(bodies, pairs, planes, settings, callback=callback)
+        result = solve_frame(
+            bodies, pairs, planes, settings, callback=callback, anchors=self.anchors
+        )
+        # carried as returned, converged or not: the history is what was solved
+        self.anchors = result.anchors  # type: ignore[assignment]
         result.timings["setup"] = setup
         return result, extra, planes, bodies

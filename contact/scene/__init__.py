@@ -12,10 +12,10 @@ from .model import (
     Material,
     OutputScene,
     PlaneScene,
-    Scene,
     SolverScene,
 )
 from .read import load_scene
+from .spec import Scene
 
 __all__ = [
     "CONTACT_KEYS",

@@ -31,7 +31,7 @@ class SceneReader(TomlReader):
 
     error = SceneError
 
-    def build(self, path: str, cls: Callable[..., T], *args: Any, **kw: Any) -> T:
+    def build(self, path: str, cls: Callable[..., T], /, *args: Any, **kw: Any) -> T:
         """``cls(*args, **kw)``, its failed check re-raised with the file and ``path``.
 
         Parameters
@@ -39,7 +39,7 @@ class SceneReader(TomlReader):
         path : str
             Key path of the table the dataclass holds (``""``: the top level).
         cls : callable
-            A scene dataclass of :mod:`contact.scene.model`.
+            A scene dataclass (:mod:`contact.scene.model`, :mod:`contact.scene.spec`).
         *args, **kw
             Its fields.
 

@@ -1,11 +1,12 @@
-"""The scene's data: one frozen dataclass per table of a scene file, with defaults and checks.
+"""The scene's tables: one frozen dataclass per table of a scene file, with defaults and checks.
 
 Each dataclass is the one source of its table's defaults and range checks
 (``docs/scene.md`` documents them, and a test holds the two together); the ``[solver]``
 table holds a :class:`~contact.solver.ContactSettings`, whose own defaults and checks
 apply. A failed check raises :class:`SceneError` naming the field relative to its table,
 ``E = 0.0: must be positive``; the reader (:mod:`contact.scene.read`) prefixes the file
-and the table's key path.
+and the table's key path. The whole scene, which holds these tables, is
+:class:`contact.scene.spec.Scene`.
 """
 
 from __future__ import annotations
@@ -13,7 +14,6 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -21,12 +21,11 @@ from numpy.typing import NDArray
 import fem
 from fem.linsolve import BACKENDS
 
-from .._toml import short
-from ..ball import BallSpec
 from ..errors import SceneError
 from ..hand.autoflex import FINGERTIPS
 from ..hand.shipped import HAND_DIR
 from ..solver import ContactSettings
+from ._checks import check_friction, invalid
 
 __all__ = [
     "CONTACT_KEYS",
@@ -39,7 +38,6 @@ __all__ = [
     "Material",
     "OutputScene",
     "PlaneScene",
-    "Scene",
     "SolverScene",
 ]
 
@@ -50,15 +48,6 @@ LINEAR_SOLVERS = ("auto", *BACKENDS)
 CONTACT_KEYS = tuple(f.name for f in fields(ContactSettings) if f.name != "support_limits")
 #: Body names a plane may not take.
 RESERVED = ("ball", "hand")
-
-
-def _invalid(key: str, value: Any, why: str) -> SceneError:
-    """A failed check of field ``key``, relative to its table."""
-    return SceneError(f"{key} = {short(value)}: {why}")
-
-
-def _fields(obj: Any) -> dict:
-    return {f.name: getattr(obj, f.name) for f in fields(obj)}
 
 
 @dataclass(frozen=True)
@@ -119,13 +108,13 @@ class AutoFlex:
 
     def __post_init__(self) -> None:
         if isinstance(self.point, str) and self.point not in FINGERTIPS:
-            raise _invalid("point", self.point, f"unknown; expected one of {', '.join(FINGERTIPS)}")
+            raise invalid("point", self.point, f"unknown; expected one of {', '.join(FINGERTIPS)}")
         if not isinstance(self.point, str) and self.point < 0:
-            raise _invalid("point", self.point, "must be at least 0")
+            raise invalid("point", self.point, "must be at least 0")
         if not self.epsilon > 0:
-            raise _invalid("epsilon", self.epsilon, "must be positive")
+            raise invalid("epsilon", self.epsilon, "must be positive")
         if self.press < 0:
-            raise _invalid("press", self.press, "must not be negative")
+            raise invalid("press", self.press, "must not be negative")
 
 
 @dataclass(frozen=True)
@@ -152,6 +141,8 @@ class HandScene:
         The flesh's tetrahedra with averaged nodal pressures (no volumetric locking);
         None: where ``flesh.nu`` is above :data:`contact.ball.LOCKING_NU`, as for a tet
         ball.
+    friction : float or None
+        Coulomb's coefficient of the skin against the ball, >= 0; None: the ball's.
     """
 
     rig: Path
@@ -163,13 +154,15 @@ class HandScene:
     bone_force_limits: dict[str, float] = field(default_factory=dict)
     auto_flexion: tuple[AutoFlex, ...] = ()
     nodal_pressure: bool | None = None
+    friction: float | None = None
 
     def __post_init__(self) -> None:
+        check_friction("friction", self.friction)
         if self.bone_force_limit is not None and not self.bone_force_limit > 0:
-            raise _invalid("bone_force_limit", self.bone_force_limit, "must be positive")
+            raise invalid("bone_force_limit", self.bone_force_limit, "must be positive")
         for bone, limit in self.bone_force_limits.items():
             if not limit > 0:
-                raise _invalid(f"bone_force_limits.{bone}", limit, "must be positive")
+                raise invalid(f"bone_force_limits.{bone}", limit, "must be positive")
 
     def limits(self, bone_names: Iterable[str]) -> dict[str, float]:
         """The force limit (N) of each bone: its override, else the global one, else none.
@@ -207,21 +200,25 @@ class PlaneScene:
     offsets : tuple of (float, (float, float, float))
         ``(time, translation)`` keys, times increasing: the plane's rigid translation (m),
         piecewise linear between keys and constant outside; empty: the plane is fixed.
+    friction : float or None
+        Coulomb's coefficient of the plane against any body, >= 0; None: the ball's.
     """
 
     name: str
     point: tuple[float, float, float]
     normal: tuple[float, float, float]
     offsets: tuple[tuple[float, tuple[float, float, float]], ...] = ()
+    friction: float | None = None
 
     def __post_init__(self) -> None:
+        check_friction("friction", self.friction)
         if self.name in RESERVED:
-            raise _invalid("name", self.name, f"reserved for a body ({', '.join(RESERVED)})")
+            raise invalid("name", self.name, f"reserved for a body ({', '.join(RESERVED)})")
         for j in range(1, len(self.offsets)):
             t, d = self.offsets[j]
             if not t > self.offsets[j - 1][0]:
                 previous = self.offsets[j - 1][0]
-                raise _invalid(
+                raise invalid(
                     f"offsets[{j}]", [t, *d], f"times must increase (previous {previous:g})"
                 )
 
@@ -244,7 +241,7 @@ class Follow:
 
     def __post_init__(self) -> None:
         if self.stop < self.start:
-            raise _invalid("stop", self.stop, f"must not be before start = {self.start:g}")
+            raise invalid("stop", self.stop, f"must not be before start = {self.start:g}")
 
 
 @dataclass(frozen=True)
@@ -266,7 +263,7 @@ class SolverScene:
 
     def __post_init__(self) -> None:
         if self.linear_solver not in LINEAR_SOLVERS:
-            raise _invalid(
+            raise invalid(
                 "linear_solver",
                 self.linear_solver,
                 f"unknown; expected one of {', '.join(LINEAR_SOLVERS)}",
@@ -308,105 +305,4 @@ class OutputScene:
     def __post_init__(self) -> None:
         for i, v in enumerate(self.window_size):
             if v < 1:
-                raise _invalid(f"window_size[{i}]", v, "must be at least 1")
-
-
-@dataclass(frozen=True)
-class Scene:
-    """A validated scene (see :func:`contact.scene.load_scene`).
-
-    Attributes
-    ----------
-    path : Path
-        The scene file (absolute).
-    name : str
-        ``scene.name``, default the file's stem.
-    ball : BallSpec
-    hand : HandScene or None
-    planes : tuple of PlaneScene
-    follow : Follow or None
-    frames : tuple of float
-        Times to compute, increasing.
-    gravity : (float, float, float) or None
-        m/s^2; None: no gravity.
-    solver : SolverScene
-    output : OutputScene
-    description : str
-        ``scene.description``.
-    """
-
-    path: Path
-    name: str
-    ball: BallSpec
-    hand: HandScene | None
-    planes: tuple[PlaneScene, ...]
-    follow: Follow | None
-    frames: tuple[float, ...]
-    gravity: tuple[float, float, float] | None
-    solver: SolverScene
-    output: OutputScene
-    description: str = ""
-
-    def echo(self) -> dict:
-        """The whole scene with its defaults filled in, JSON-serialisable, in the file's layout.
-
-        Paths are strings; ``None`` stands for an absent optional value.
-        """
-        b = self.ball
-        ball = {
-            "radius": b.radius,
-            "kind": b.kind,
-            "thickness": b.thickness,
-            "pressure": b.pressure,
-            "element": b.element,
-            "mesh_size": b.mesh_size,
-            "mesh": None if b.mesh is None else str(b.mesh),
-            "center": list(b.center),
-            "material": {"E": b.E, "nu": b.nu, "density": b.density},
-            "nodal_pressure": b.nodal_pressure,
-            "follow": None if self.follow is None else _fields(self.follow),
-        }
-        hand = None
-        if self.hand is not None:
-            h = self.hand
-            hand = {
-                "rig": str(h.rig),
-                "directory": str(h.directory),
-                "resolution": h.resolution,
-                "flesh": _fields(h.flesh),
-                "bone_force_limit": h.bone_force_limit,
-                "bone_force_limits": dict(h.bone_force_limits),
-                "keyframe": [{**k, "angles": dict(k["angles"])} for k in h.keyframes],
-                "auto_flexion": [
-                    {**_fields(a), "times": None if a.times is None else list(a.times)}
-                    for a in h.auto_flexion
-                ],
-                "nodal_pressure": h.nodal_pressure,
-            }
-        return {
-            "path": str(self.path),
-            "scene": {
-                "name": self.name,
-                "description": self.description,
-                "gravity": None if self.gravity is None else list(self.gravity),
-            },
-            "ball": ball,
-            "hand": hand,
-            "plane": [
-                {
-                    "name": p.name,
-                    "point": list(p.point),
-                    "normal": list(p.normal),
-                    "offsets": [[t, *d] for t, d in p.offsets],
-                }
-                for p in self.planes
-            ],
-            "frames": {"times": list(self.frames)},
-            "solver": self.solver.echo(),
-            "output": {
-                "directory": str(self.output.directory),
-                "pictures": self.output.pictures,
-                "gif": self.output.gif,
-                "window_size": list(self.output.window_size),
-            },
-        }
+                raise invalid(f"window_size[{i}]", v, "must be at least 1")

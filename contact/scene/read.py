@@ -9,13 +9,13 @@ boolean is not a number), a missing required key or a value out of range raises
 :class:`SceneError` with one line naming the file and the key path, e.g.
 ``grasp.toml: hand.keyframe[1].angles.index_pip = 200: outside its limits [0, 110]``.
 List indices count from 0. This module reads; the defaults and range checks are the
-dataclasses' (:mod:`contact.scene.model`, :class:`~contact.ball.BallSpec`,
-:class:`~contact.solver.ContactSettings`), whose failures it re-raises with the file and
-key path. What needs several sections is checked here: the keyframes against the rig's
-skeleton (:mod:`contact.scene.read_hand`), frames within the keyframes' span, planes that
-pass through each other or leave the ball's centre behind them at a frame, and a
-writable output folder. What needs the meshes (the ball inside a bone, a ball held by
-nothing, an inverted element) is the CLI's to check.
+dataclasses' (:mod:`contact.scene.model`, :mod:`contact.scene.spec`,
+:class:`~contact.ball.BallSpec`, :class:`~contact.solver.ContactSettings`), whose
+failures it re-raises with the file and key path. What needs several sections is checked
+here: the keyframes against the rig's skeleton (:mod:`contact.scene.read_hand`), frames
+within the keyframes' span, planes that pass through each other or leave the ball's
+centre behind them at a frame, and a writable output folder. What needs the meshes (the
+ball inside a bone, a ball held by nothing, an inverted element) is the CLI's to check.
 """
 
 from __future__ import annotations
@@ -40,17 +40,17 @@ from .model import (
     Material,
     OutputScene,
     PlaneScene,
-    Scene,
     SolverScene,
 )
 from .read_hand import read_auto_flexion, read_follow, read_hand
+from .spec import Scene
 
 __all__ = ["load_scene"]
 
 _TOP = ("scene", "ball", "hand", "plane", "frames", "solver", "output")
 _BALL = (
     "radius", "kind", "thickness", "pressure", "element", "mesh_size", "mesh", "center",
-    "material", "follow", "nodal_pressure",
+    "material", "follow", "nodal_pressure", "friction",
 )  # fmt: skip
 
 
@@ -64,8 +64,13 @@ def _read_scene(r: SceneReader, data: dict, path: Path) -> tuple[str, str, tuple
     return name, desc, gravity
 
 
-def _read_ball(r: SceneReader, data: dict, base: Path) -> tuple[BallSpec, dict | None]:
-    """The ``[ball]`` table as a :class:`BallSpec` (which checks it), and ``ball.follow``."""
+def _read_ball(
+    r: SceneReader, data: dict, base: Path
+) -> tuple[BallSpec, dict | None, float | None]:
+    """The ``[ball]`` table: a :class:`BallSpec` (which checks it), ``ball.follow``.
+
+    And ``ball.friction``, None where not given (:class:`Scene` holds its default and check).
+    """
     if "ball" not in data:
         raise r.fail("ball", MISSING, "missing: a scene needs a [ball] table")
     b = r.table(data["ball"], "ball", required=("radius",), optional=_BALL)
@@ -96,7 +101,8 @@ def _read_ball(r: SceneReader, data: dict, base: Path) -> tuple[BallSpec, dict |
         spec = BallSpec(**kw)
     except BallError as exc:
         raise SceneError(f"{r.source}: {exc}") from None
-    return spec, b.get("follow")
+    friction = r.number(b["friction"], "ball.friction") if "friction" in b else None
+    return spec, b.get("follow"), friction
 
 
 def _read_frames(r: SceneReader, data: dict, hand: HandScene | None) -> tuple[float, ...]:
@@ -131,7 +137,7 @@ def _read_planes(r: SceneReader, data: dict) -> tuple[PlaneScene, ...]:
     planes: list[PlaneScene] = []
     for i, p in enumerate(value):
         where = f"plane[{i}]"
-        r.table(p, where, required=("name", "point", "normal"), optional=("offsets",))
+        r.table(p, where, required=("name", "point", "normal"), optional=("offsets", "friction"))
         name = r.string(p["name"], f"{where}.name")
         if any(q.name == name for q in planes):
             raise r.fail(f"{where}.name", name, "another plane has this name")
@@ -148,7 +154,8 @@ def _read_planes(r: SceneReader, data: dict) -> tuple[PlaneScene, ...]:
             t, *d = r.vector(k, f"{where}.offsets[{j}]", 4)
             offsets.append((t, tuple(d)))
         normal = tuple(float(x) for x in n / norm)
-        planes.append(r.build(where, PlaneScene, name, point, normal, tuple(offsets)))
+        mu = r.number(p["friction"], f"{where}.friction") if "friction" in p else None
+        planes.append(r.build(where, PlaneScene, name, point, normal, tuple(offsets), mu))
     return tuple(planes)
 
 
@@ -316,7 +323,7 @@ def load_scene(path: str | os.PathLike) -> Scene:
     r.table(data, "", optional=_TOP)
     base = p.resolve().parent
     name, description, gravity = _read_scene(r, data, p)
-    ball, follow_data = _read_ball(r, data, base)
+    ball, follow_data, ball_friction = _read_ball(r, data, base)
     read = read_hand(r, data, base)
     hand, skeleton = read if read is not None else (None, None)
     follow = read_follow(r, follow_data, skeleton)
@@ -328,7 +335,10 @@ def load_scene(path: str | os.PathLike) -> Scene:
     _check_planes(r, planes, ball, frames, follow)
     solver = _read_solver(r, data)
     output = _read_output(r, data)
-    return Scene(
+    more = {} if ball_friction is None else {"ball_friction": ball_friction}
+    return r.build(
+        "",
+        Scene,
         path=p.resolve(),
         name=name,
         ball=ball,
@@ -340,4 +350,5 @@ def load_scene(path: str | os.PathLike) -> Scene:
         solver=solver,
         output=output,
         description=description,
+        **more,
     )

@@ -25,7 +25,7 @@ __all__ = ["HAND_KEYS", "read_auto_flexion", "read_follow", "read_hand", "read_k
 #: The keys of ``[hand]``.
 HAND_KEYS = (
     "rig", "directory", "resolution", "flesh", "bone_force_limit", "bone_force_limits",
-    "keyframe", "auto_flexion", "nodal_pressure",
+    "keyframe", "auto_flexion", "nodal_pressure", "friction",
 )  # fmt: skip
 
 
@@ -102,6 +102,7 @@ def read_hand(r: SceneReader, data: dict, base: Path) -> tuple[HandScene, Skelet
     nodal = None
     if "nodal_pressure" in h:
         nodal = r.boolean(h["nodal_pressure"], "hand.nodal_pressure")
+    friction = r.number(h["friction"], "hand.friction") if "friction" in h else None
     hand = r.build(
         "hand",
         HandScene,
@@ -114,6 +115,7 @@ def read_hand(r: SceneReader, data: dict, base: Path) -> tuple[HandScene, Skelet
         keyframes=keys,
         auto_flexion=(),
         nodal_pressure=nodal,
+        friction=friction,
     )
     return hand, skeleton
 

@@ -60,6 +60,7 @@ OWNERS: dict[str, dict[str, Any]] = {
     "[ball]": {
         **{k: v for k, v in _defaults(BallSpec).items() if k not in ("E", "nu", "density")},
         "material": _material(BallSpec),
+        "friction": Scene.ball_friction,
     },
     "material": _defaults(BallSpec, ("E", "nu", "density")),
     "[ball.follow]": _defaults(Follow),
