@@ -1,9 +1,10 @@
 """Pictures of a results folder: von Mises stress per frame, the GIF, the convergence plot.
 
-The frame pictures are rendered once every frame is known, so that all frames share one
-camera and one colour range: the camera keeps the view direction it is given and fits the
-box around every body of every frame; the colour range runs from zero to the largest nodal
-von Mises stress of any frame. They need off-screen OpenGL
+A frame with friction also gets a picture of its stick and slip contacts
+(:mod:`contact.output.status`). The frame pictures are rendered once every frame is known,
+so that all frames share one camera and one colour range: the camera keeps the view
+direction it is given and fits the box around every body of every frame; the colour range
+runs from zero to the largest nodal von Mises stress of any frame. They need off-screen OpenGL
 (:func:`contact.rendering.rendering_available`, read at use so that tests can replace it);
 without it, or when VTK fails, they are skipped with a warning rather than failing a run.
 
@@ -17,7 +18,7 @@ import logging
 import os
 import shutil
 import uuid
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -31,6 +32,7 @@ from fem.stress import nodal_average
 
 from .. import rendering
 from .staging import write_atomic
+from .status import StatusMarkers, draw_status
 
 if TYPE_CHECKING:
     import pyvista
@@ -49,11 +51,13 @@ log = logging.getLogger(__name__)
 #: given: looking down obliquely from ``(+x, -y, +z)`` with ``z`` up.
 _DEFAULT_VIEW = ((1.0, -1.6, 1.0), (0.0, 0.0, 0.0), (0.0, 0.0, 1.0))
 _CMAP = "viridis"
+#: Diameter of a stick or slip dot, as a fraction of the picture's smaller side (pixels).
+_DOT = 1.0 / 60.0
 
 
 @dataclass
 class Picture:
-    """What a frame's picture needs: deformed surfaces with their opacity, planes, title.
+    """What a frame's pictures need: deformed surfaces with their opacity, planes, contacts.
 
     Attributes
     ----------
@@ -65,12 +69,16 @@ class Picture:
         Deformed outer surfaces with point data ``von_mises``, and their opacity.
     planes : list of (str, ndarray (3,), ndarray (3,))
         Name, a point and the unit normal of each plane at the frame.
+    status : StatusMarkers or None
+        The stick and slip contact nodes where the frame has friction (its
+        ``status_NNNN.png``), else None (no status picture).
     """
 
     index: int
     time: float
     surfaces: list[tuple[pyvista.PolyData, float]]
     planes: list[tuple[str, NDArray[np.float64], NDArray[np.float64]]]
+    status: StatusMarkers | None = None
 
 
 def deformed_surface(
@@ -110,12 +118,12 @@ def render_pictures(
     planes_extent: float | None = None,
     camera: tuple | None = None,
 ) -> str:
-    """Render ``folder/frame_NNNN.png`` for every picture; say how it went.
+    """Render ``folder/frame_NNNN.png`` for every picture (and ``status_NNNN.png``); say how.
 
     Parameters
     ----------
     pictures : sequence of Picture
-        The frames.
+        The frames; those with ``status`` also get ``status_NNNN.png``.
     folder : Path
         Where the PNG files go (created; removed again when rendering fails).
     window_size : (int, int)
@@ -161,8 +169,6 @@ def _render_all(
     planes_extent: float | None,
     camera: tuple | None,
 ) -> None:
-    import pyvista as pv
-
     folder.mkdir(exist_ok=True)
     bounds = np.array([s.bounds for p in pictures for s, _ in p.surfaces if s.n_points]).reshape(
         -1, 6
@@ -181,45 +187,83 @@ def _render_all(
     else:
         pos, _, up = _DEFAULT_VIEW
         view = [tuple(center + np.asarray(pos) * span), tuple(center), up]
+    shot = _Camera(window_size, extent, center, view, box)
+    dot = _DOT * min(window_size)
     for pic in pictures:
-        plotter = pv.Plotter(off_screen=True, window_size=list(window_size))
+        image = shot.shoot(pic, f"frame {pic.index}, t = {pic.time:g}", _stress(clim))
+        write_atomic(folder / f"frame_{pic.index:04d}.png", rendering.png_bytes(image))
+        if pic.status is not None:
+            title = f"frame {pic.index}, t = {pic.time:g}: stick and slip"
+            image = shot.shoot(
+                pic, title, lambda plotter, p: draw_status(plotter, p.surfaces, p.status, dot)
+            )
+            write_atomic(folder / f"status_{pic.index:04d}.png", rendering.png_bytes(image))
+    log.info("%d pictures rendered", len(pictures))
+
+
+@dataclass(frozen=True)
+class _Camera:
+    """What every picture of a run shares: its size, the plane squares and the camera."""
+
+    window_size: tuple[int, int]
+    extent: float
+    center: NDArray[np.float64]
+    view: list
+    box: list[float]
+
+    def shoot(
+        self, pic: Picture, title: str, draw: Callable[[pyvista.Plotter, Picture], None]
+    ) -> NDArray[np.uint8]:
+        """Render one picture: ``draw`` adds the bodies, then the planes, title and camera."""
+        import pyvista as pv
+
+        plotter = pv.Plotter(off_screen=True, window_size=list(self.window_size))
         try:
             plotter.set_background("white")
-            for surface, opacity in pic.surfaces:
-                plotter.add_mesh(
-                    surface,
-                    scalars="von_mises",
-                    cmap=_CMAP,
-                    clim=clim,
-                    opacity=opacity,
-                    smooth_shading=True,
-                    show_scalar_bar=False,
-                )
-            plotter.add_scalar_bar(
-                "von Mises stress (Pa)",
-                color="black",
-                fmt="%.3g",
-                title_font_size=16,
-                label_font_size=14,
-                vertical=True,
-                position_x=0.86,
-                position_y=0.08,
-                height=0.76,
-                width=0.06,
-            )
+            draw(plotter, pic)
             for _, point, normal in pic.planes:
-                c = center - np.dot(center - point, normal) * normal
-                square = pv.Plane(center=c, direction=normal, i_size=extent, j_size=extent)
+                c = self.center - np.dot(self.center - point, normal) * normal
+                square = pv.Plane(
+                    center=c, direction=normal, i_size=self.extent, j_size=self.extent
+                )
                 plotter.add_mesh(square, color="#8899aa", opacity=0.25, show_edges=False)
-            plotter.add_text(f"frame {pic.index}, t = {pic.time:g}", font_size=12, color="black")
-            plotter.camera_position = view
-            plotter.reset_camera(bounds=box)
+            plotter.add_text(title, font_size=12, color="black")
+            plotter.camera_position = self.view
+            plotter.reset_camera(bounds=self.box)
             plotter.camera.zoom(1.1)
-            image = plotter.screenshot(return_img=True)
+            return plotter.screenshot(return_img=True)
         finally:
             plotter.close()
-        write_atomic(folder / f"frame_{pic.index:04d}.png", rendering.png_bytes(image))
-    log.info("%d pictures rendered", len(pictures))
+
+
+def _stress(clim: tuple[float, float]) -> Callable[[pyvista.Plotter, Picture], None]:
+    """Draws the bodies coloured by von Mises stress, with its colour bar."""
+
+    def draw(plotter: pyvista.Plotter, pic: Picture) -> None:
+        for surface, opacity in pic.surfaces:
+            plotter.add_mesh(
+                surface,
+                scalars="von_mises",
+                cmap=_CMAP,
+                clim=clim,
+                opacity=opacity,
+                smooth_shading=True,
+                show_scalar_bar=False,
+            )
+        plotter.add_scalar_bar(
+            "von Mises stress (Pa)",
+            color="black",
+            fmt="%.3g",
+            title_font_size=16,
+            label_font_size=14,
+            vertical=True,
+            position_x=0.86,
+            position_y=0.08,
+            height=0.76,
+            width=0.06,
+        )
+
+    return draw
 
 
 def write_gif_atomically(pngs: Sequence[Path], path: Path, fps: float) -> None:

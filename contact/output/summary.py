@@ -1,7 +1,8 @@
 """What ``summary.json`` says: a frame's verdict and record, the package versions, the JSON.
 
 A frame's record (:func:`frame_entry`) holds its time, verdict, forces (contact, obstacle,
-bone), contacts per pair, largest von Mises stress per body, the iteration history, its
+bone), contacts per pair, whether its free bodies are held, its Coulomb friction figures
+(:func:`friction_entry`), largest von Mises stress per body, the iteration history, its
 files and its timings. Everything but the ``"timings"`` keys (seconds) and the versions is
 a function of the input, so that two runs of one scene give equal summaries.
 """
@@ -19,9 +20,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..solver.results import FrameResult
+from ..solver.results import FrameResult, FrictionReport
 
-__all__ = ["frame_entry", "jsonable", "summary_text", "verdict", "versions"]
+__all__ = ["frame_entry", "friction_entry", "jsonable", "summary_text", "verdict", "versions"]
 
 #: Distributions whose versions :func:`versions` reports (key -> distribution name).
 _DISTRIBUTIONS = {
@@ -141,6 +142,36 @@ def _history(result: FrameResult) -> list[dict[str, Any]]:
     ]
 
 
+def friction_entry(report: FrictionReport | None) -> dict[str, Any] | None:
+    """The ``"friction"`` item of a frame's record: None where every pair is frictionless.
+
+    Parameters
+    ----------
+    report : FrictionReport or None
+
+    Returns
+    -------
+    dict or None
+        ``iterations``, ``residual``, ``tolerance``, ``stick``, ``slip``, ``max_slip``
+        (m), ``max_cone_use`` and ``tangential_force``: pair or plane name ->
+        ``{"force": [x, y, z], "magnitude": float}`` (N), names sorted.
+    """
+    if report is None:
+        return None
+    return {
+        "iterations": int(report.iterations),
+        "residual": float(report.residual),
+        "tolerance": float(report.tolerance),
+        "stick": int(report.stick),
+        "slip": int(report.slip),
+        "max_slip": float(report.max_slip),
+        "max_cone_use": float(report.max_cone_use),
+        "tangential_force": {
+            k: _vector(report.tangential_force[k]) for k in sorted(report.tangential_force)
+        },
+    }
+
+
 def _bone_forces(result: FrameResult) -> dict[str, dict[str, Any]]:
     """Support forces keyed by group name (``body/group`` where a name repeats)."""
     counts: dict[str, int] = {}
@@ -163,6 +194,7 @@ def frame_entry(
     vtu: Mapping[str, str],
     max_von_mises: Mapping[str, float],
     picture: str | None,
+    status_picture: str | None = None,
     extra: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """The ``summary.json`` record of one frame.
@@ -181,6 +213,8 @@ def frame_entry(
         Body name -> its largest cell-average von Mises stress (Pa).
     picture : str or None
         The frame's picture, relative to the results folder, or None without pictures.
+    status_picture : str or None
+        Its stick and slip picture, likewise, or None (no pictures or no friction).
     extra : mapping, optional
         More JSON-able items (a key of the record may not be repeated).
 
@@ -223,9 +257,11 @@ def frame_entry(
             for b, (f, lim) in sorted(result.over_limit.items())
         },
         "contacts": {"total": int(sum(per_pair.values())), "per_pair": per_pair},
+        "held": None if result.held is None else bool(result.held),
+        "friction": friction_entry(result.friction),
         "max_von_mises": dict(max_von_mises),
         "history": _history(result),
-        "files": {"vtu": dict(vtu), "picture": picture},
+        "files": {"vtu": dict(vtu), "picture": picture, "status_picture": status_picture},
         "timings": {k: float(v) for k, v in sorted(result.timings.items())},
     }
     if extra:

@@ -9,10 +9,13 @@ Layout of a results folder::
     <body>_<index:04d>.vtu     reference configuration of the frame, with the arrays below
     <body>.pvd                 ParaView series of a body (timestep = frame time)
     frames/frame_<index:04d>.png   von Mises stress on the deformed bodies
+    frames/status_<index:04d>.png  stick and slip contacts (frames with friction)
     grasp.gif                  the frames as an animation
     convergence.png            largest change against iteration, one line per frame
 
-VTU arrays: point data ``displacement`` and ``contact_force`` ``(N, 3)``; cell data
+VTU arrays: point data ``displacement`` and ``contact_force`` ``(N, 3)``, and the contact
+fields ``normal_force``, ``tangential_force``, ``contact_status`` and ``cone_use``
+(:mod:`contact.output.status`, zeros where a body has no contact); cell data
 ``von_mises`` (cell-average stress, Pa), ``stress`` ``(M, 6)`` in the component order
 :data:`STRESS_COMPONENTS` (``xx yy zz xy yz xz``, the order ParaView names the components
 of a symmetric tensor) and ``region``. The points are the body's reference configuration
@@ -55,6 +58,7 @@ from .pictures import (
     write_gif_atomically,
 )
 from .staging import check_target, make_staging, swap_into_place, write_atomic
+from .status import contact_point_data, status_markers
 from .summary import frame_entry, summary_text
 from .summary import versions as _versions  # finish() has a parameter of this name
 
@@ -118,7 +122,8 @@ class ResultsWriter:
         replaced by :meth:`finish` when it is empty or a results folder (holds a
         ``summary.json``); any other existing folder or file is refused.
     pictures : bool
-        Render ``frames/frame_NNNN.png``.
+        Render ``frames/frame_NNNN.png`` (and ``frames/status_NNNN.png`` for a frame with
+        friction).
     gif : bool
         Assemble ``grasp.gif`` from the pictures (only with ``pictures``).
     window_size : (int, int)
@@ -231,7 +236,8 @@ class ResultsWriter:
         Raises
         ------
         ValueError
-            On a repeated index, an unknown body or a shape mismatch.
+            On a repeated index, an unknown body or a shape mismatch (of a displacement
+            or a contact field).
         OutputError
             When a file cannot be written.
         """
@@ -262,6 +268,10 @@ class ResultsWriter:
         plane_list = [
             (str(n), np.asarray(p, dtype=np.float64).reshape(3), _unit(q)) for n, p, q in planes
         ]
+        fields = {
+            name: contact_point_data(result.contact_fields.get(name), body.mesh.n_points, name)
+            for name, body in bodies.items()
+        }
         vtu: dict[str, str] = {}
         max_vm: dict[str, float] = {}
         surfaces = []
@@ -284,7 +294,7 @@ class ResultsWriter:
                 fem.write_mesh(
                     self.staging / fname,
                     body.mesh,
-                    point_data={"displacement": u, "contact_force": f},
+                    point_data={"displacement": u, "contact_force": f, **fields[name]},
                     cell_data={"von_mises": vm, "stress": six},
                 )
             except fem.MeshError as exc:
@@ -294,8 +304,14 @@ class ResultsWriter:
             vtu[name] = fname
             if self.pictures:
                 surfaces.append((deformed_surface(body.mesh, u, vm), float(body.opacity)))
+        status = None
+        if self.pictures and result.friction is not None:
+            status = status_markers(
+                {n: b.mesh.points + result.displacement[n] for n, b in bodies.items()},
+                {n: fields[n]["contact_status"] for n in bodies},
+            )
         if self.pictures:
-            self._pictures.append(Picture(index, time, surfaces, plane_list))
+            self._pictures.append(Picture(index, time, surfaces, plane_list, status))
         entry = frame_entry(
             index,
             time,
@@ -303,6 +319,7 @@ class ResultsWriter:
             vtu=vtu,
             max_von_mises=max_vm,
             picture=f"frames/frame_{index:04d}.png" if self.pictures else None,
+            status_picture=f"frames/status_{index:04d}.png" if status is not None else None,
             extra=extra,
         )
         entry["timings"]["write"] = _clock() - t0
