@@ -21,14 +21,18 @@ is written as the root of the Alart-Curnier natural map (Alart and Curnier 1991)
 
 and solved by a semismooth Newton method: each step is the primal-dual active set of
 Hueber, Stadler and Wohlmuth (2008) (open, stick and slip contacts read off ``xi`` and
-``z``), with the slip derivative of the projection, then a backtracking line search on
-``|F|^2``. ``c_p`` and ``c_t`` are the inverse diagonal compliances, which makes every
-residual a force. Where ``mu = 0`` everywhere the frictionless LCP
-(:mod:`contact.solver.lcp`) is used instead.
+``z``), with their slip derivative, then a backtracking line search on ``|F|^2``.
+``c_p`` and ``c_t`` are the inverse diagonal compliances, which makes every residual a
+force. Where the active sets cycle, it starts again with other multiples of them, with
+and without a line search (:data:`STRATEGIES`); the last resort is a fixed point of
+Tresca problems (the radii ``mu N`` of the last normal forces) finished by Coulomb's.
+Where ``mu = 0`` everywhere the frictionless LCP (:mod:`contact.solver.lcp`) is used
+instead.
 """
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 
 import numpy as np
@@ -42,13 +46,29 @@ __all__ = ["FRICTION_TOLERANCE", "FrictionResult", "solve_friction"]
 #: Residual of the natural map, over the force scale, below which a solve has converged.
 FRICTION_TOLERANCE = 1e-9
 #: Newton steps before a solve gives up (an unload that reverses the slip takes the most).
-MAX_NEWTON = 80
+MAX_NEWTON = 200
+#: Newton steps without halving the residual after which the active sets are taken to
+#: cycle and the next strategy starts.
+STALL = 10
+#: Newton steps a strategy may take.
+TRY_STEPS = 40
+#: The strategies tried in turn from the same start, each a factor on the augmentation
+#: ``c_p, c_t`` (the inverse diagonal compliances) and whether steps are searched along
+#: (a backtracking line search on ``|F|^2``) or taken whole: the natural map's roots do
+#: not depend on them, the active sets the steps visit do.
+STRATEGIES = ((1.0, False), (0.3, False), (0.1, False), (3.0, False), (1.0, True),
+              (0.3, True))
+#: Newton steps that polish a solve past the tolerance, towards :data:`POLISH_TOL`.
+POLISH = 3
+POLISH_TOL = 1e-14
+#: Tresca solves of the last resort (each with the radii of the last normal forces).
+TRESCA = 30
 
 #: Weight of the free bodies' balance in the line search's merit ``|F|^2``. It changes no
 #: Newton step and no solution; where no balance exists (a load past the friction the
 #: contacts can give) the search settles with the contact law met and the balance left
 #: unmet, so that what is left unbalanced is the load the contacts could not carry.
-BALANCE_WEIGHT = 1e-3
+BALANCE_WEIGHT = 1.0
 
 OPEN, STICK, SLIP = 0, 1, 2
 
@@ -91,6 +111,7 @@ class _Problem:
     """The natural map of one contact set and its generalised Jacobian."""
 
     def __init__(self, w, g, rhs, c, mu, tangent) -> None:
+        self.fixed: NDArray | None = None  # Tresca: each frictional contact's radius
         self.w, self.g, self.rhs, self.c = w, g, rhs, c
         self.k = mu.size
         self.m, self.r = g.shape
@@ -103,6 +124,18 @@ class _Problem:
         dt = d[self.t].mean(axis=1) if self.fr.size else np.zeros(0)
         self.ct = 1.0 / np.maximum(dt, floor)
 
+    def scaled(self, factor: float, fixed: NDArray | None = None) -> _Problem:
+        """The same problem with its augmentation ``c_p, c_t`` times ``factor``.
+
+        With ``fixed``, Tresca's law instead: each frictional contact's radius is given
+        (where it is closed).
+        """
+        out = copy.copy(self)
+        out.cp = self.cp * factor
+        out.ct = self.ct * factor
+        out.fixed = fixed
+        return out
+
     def values(self, lam: NDArray, a: NDArray) -> NDArray:
         return self.w @ lam + self.g @ a - self.rhs
 
@@ -114,7 +147,10 @@ class _Problem:
         closed = xi > 0
         f = np.empty(self.m + self.r)
         f[:k] = np.where(closed, self.cp * y[:k], lam[:k])
-        radius = self.mu[fr] * np.maximum(xi[fr], 0.0)
+        if self.fixed is None:
+            radius = self.mu[fr] * np.maximum(xi[fr], 0.0)
+        else:
+            radius = np.where(closed[fr], self.fixed, 0.0)
         lt = lam[t]  # (kf, 2)
         z = lt - self.ct[:, None] * y[t]
         nz = np.linalg.norm(z, axis=1)
@@ -124,7 +160,10 @@ class _Problem:
         f[t.ravel()] = ft.ravel()
         # rows of the system that belong to no contact's normal or tangent: none
         f[self.m :] = BALANCE_WEIGHT * (self.g.T @ lam - self.c)
-        return f, {"closed": closed, "stick": stick, "q": q, "nz": nz, "radius": radius, "y": y}
+        return f, {
+            "closed": closed, "stick": stick, "q": q, "nz": nz, "radius": radius, "y": y,
+            "lt": lt,
+        }
 
     def jacobian(self, s: dict) -> NDArray:
         k, m, r, fr, t = self.k, self.m, self.r, self.fr, self.t
@@ -148,8 +187,19 @@ class _Problem:
                 dxi = -self.cp[p] * wg[p]
                 dxi[p] += 1.0
                 dz = jt.copy() - self.ct[c_] * wg[ti]
-                proj = np.eye(2) - np.outer(qc, qc)
-                jt = jt - self.mu[p] * np.outer(qc, dxi) - (radius[c_] / nz[c_]) * proj @ dz
+                # Hueber, Stadler and Wohlmuth's slip derivative: the exact one has
+                # r q q^T dz / |z| where this has the force projected on the cone; they
+                # agree at a solution (lam_t = r q), and this one does not stall
+                lt = s["lt"][c_]
+                size = float(np.linalg.norm(lt))
+                cone = lt * min(1.0, radius[c_] / size) if size > 0 else lt
+                mu = self.mu[p] if self.fixed is None else 0.0
+                jt = (
+                    jt
+                    - mu * np.outer(qc, dxi)
+                    - (radius[c_] / nz[c_]) * dz
+                    + np.outer(cone, qc) @ dz / nz[c_]
+                )
             j[ti, :] = jt
         j[m:, :m] = BALANCE_WEIGHT * self.g.T
         return j
@@ -226,39 +276,51 @@ def solve_friction(
 
 
 def _newton(w, g, rhs, c, mu, tangent, start, load_scale, tol, max_steps) -> FrictionResult:
-    prob = _Problem(w, g, rhs, c, mu, tangent)
-    m, r, k = prob.m, prob.r, prob.k
+    base = _Problem(w, g, rhs, c, mu, tangent)
+    m, k = base.m, base.k
     lam = np.zeros(m) if start is None else np.asarray(start, float).copy()
     lam[:k] = np.maximum(lam[:k], 0.0)
-    a = np.zeros(r)
     if start is None:
         # start from the rows that penetrate without forces, closed and stuck
-        lam[:k] = np.maximum(prob.cp * rhs[:k], 0.0)
-    f, s = prob.residual(lam, a)
-    scale = max(float(np.abs(prob.cp * rhs[:k]).max(initial=0.0)), load_scale, 1e-300)
+        lam[:k] = np.maximum(base.cp * rhs[:k], 0.0)
+    a = _placed(base, lam)
+    scale = max(float(np.abs(base.cp * rhs[:k]).max(initial=0.0)), load_scale, 1e-300)
+
+    def measure(lam: NDArray, a: NDArray) -> float:
+        f, _ = base.residual(lam, a)
+        return _size(f, m) / max(scale, float(np.abs(lam).max(initial=0.0)))
+
+    best = (measure(lam, a), lam, a)
     steps = 0
-    res = _size(f, m) / max(scale, float(np.abs(lam).max(initial=0.0)))
-    while res > tol and steps < max_steps:
-        d = _step(prob.jacobian(s), f)
-        merit = float(f @ f)
-        x0 = np.concatenate([lam, a])
-        step = 1.0
-        while True:
-            x = x0 + step * d
-            f1, s1 = prob.residual(x[:m], x[m:])
-            if float(f1 @ f1) <= (1.0 - 1e-4 * step) * merit or step < 1e-6:
-                break
-            step *= 0.5
-        lam, a, f, s = x[:m], x[m:], f1, s1
-        steps += 1
-        res = _size(f, m) / max(scale, float(np.abs(lam).max(initial=0.0)))
+    for factor, search in STRATEGIES:
+        if best[0] <= tol or steps >= max_steps:
+            break
+        x, n = _descend(base.scaled(factor), lam, a, measure, tol, search, max_steps - steps)
+        steps += n
+        if x[0] < best[0]:
+            best = x
+    if best[0] > tol and steps < max_steps and base.fr.size:
+        # the last resort: Tresca's law with the radii of the last normal forces, in
+        # turn, until the normal forces settle; then Coulomb's from there
+        x, n = _tresca(base, best, measure, tol, max_steps - steps)
+        steps += n
+        if x[0] < best[0]:
+            best = x
+    if best[0] <= tol:
+        # a few more steps take a solve this close to round-off (quadratic convergence)
+        x, n = _descend(base, best[1], best[2], measure, POLISH_TOL, False, POLISH)
+        steps += n
+        if x[0] < best[0]:
+            best = x
+    res, lam, a = best
+    _, s = base.residual(lam, a)
     status = np.where(s["closed"], SLIP, OPEN).astype(np.int64)
-    status[prob.fr[s["stick"] & s["closed"][prob.fr]]] = STICK
+    status[base.fr[s["stick"] & s["closed"][base.fr]]] = STICK
     if res <= tol:
         # an open contact's forces are zero to the tolerance: make them exactly zero
         lam = lam.copy()
-        lam[: prob.k][status == OPEN] = 0.0
-        lam[prob.t[status[prob.fr] == OPEN].ravel()] = 0.0
+        lam[:k][status == OPEN] = 0.0
+        lam[base.t[status[base.fr] == OPEN].ravel()] = 0.0
     return FrictionResult(
         lam=lam,
         a=a,
@@ -269,3 +331,85 @@ def _newton(w, g, rhs, c, mu, tangent, start, load_scale, tol, max_steps) -> Fri
         solved=res <= tol,
         unbalanced=g.T @ lam - c,
     )
+
+
+def _placed(base: _Problem, lam: NDArray) -> NDArray:
+    """Free bodies' amplitudes that best close the rows pushing under ``lam``."""
+    if not base.r:
+        return np.zeros(0)
+    on = np.flatnonzero(lam[: base.k] > 0)
+    rows = np.concatenate([on, base.t[np.isin(base.fr, on)].ravel()])
+    if not rows.size:
+        return np.zeros(base.r)
+    return np.linalg.lstsq(base.g[rows], (base.rhs - base.w @ lam)[rows], rcond=None)[0]
+
+
+def _descend(prob: _Problem, lam, a, measure, tol, search: bool, budget: int):
+    """Newton steps on ``prob`` from ``(lam, a)``: the best ``(residual, lam, a)`` and the steps.
+
+    Stops at ``tol``, after :data:`TRY_STEPS` steps, or where the residual has not halved
+    in :data:`STALL` steps (active sets that cycle). ``search``: a backtracking line
+    search on ``|F|^2`` (otherwise full steps).
+    """
+    m = prob.m
+    f, s = prob.residual(lam, a)
+    best = (measure(lam, a), lam, a)
+    trail = [best[0]]
+    n = 0
+    while best[0] > tol and n < min(TRY_STEPS, budget):
+        d = _step(prob.jacobian(s), f)
+        if not np.isfinite(d).all():
+            break
+        x0 = np.concatenate([lam, a])
+        step, merit = 1.0, float(f @ f)
+        while True:
+            x = x0 + step * d
+            f1, s1 = prob.residual(x[:m], x[m:])
+            if not search or float(f1 @ f1) <= (1 - 1e-4 * step) * merit or step < 1e-6:
+                break
+            step *= 0.5
+        lam, a, f, s = x[:m], x[m:], f1, s1
+        n += 1
+        res = measure(lam, a)
+        if not np.isfinite(res):
+            break
+        if res < best[0]:
+            best = (res, lam, a)
+        trail.append(res)
+        if len(trail) > STALL and min(trail[-STALL:]) > 0.5 * trail[-1 - STALL]:
+            break
+    return best, n
+
+
+def _tresca(base: _Problem, best, measure, tol, budget: int):
+    """Tresca solves with the radii ``mu N`` of the last normal forces until they settle."""
+    k = base.k
+    _, lam, a = best
+    n = 0
+    normal = np.maximum(lam[:k], 0.0)
+    for _ in range(TRESCA):
+        fixed = base.mu[base.fr] * normal[base.fr]
+        tres = base.scaled(1.0, fixed)
+
+        def gap(lam: NDArray, a: NDArray, prob=tres) -> float:
+            f, _ = prob.residual(lam, a)
+            return _size(f, base.m) / max(float(np.abs(lam).max(initial=0.0)), 1e-300)
+
+        for factor, search in STRATEGIES:
+            x, used = _descend(base.scaled(factor, fixed), lam, a, gap, tol, search, budget - n)
+            n += used
+            if x[0] <= tol or n >= budget:
+                break
+        lam, a = x[1], x[2]
+        now = np.maximum(lam[:k], 0.0)
+        settled = np.abs(now - normal).max(initial=0.0) <= tol * max(now.max(initial=0.0), 1e-300)
+        normal = now
+        if settled or n >= budget:
+            break
+    # Coulomb's law from the settled Tresca solution
+    for factor, search in STRATEGIES:
+        x, used = _descend(base.scaled(factor), lam, a, measure, tol, search, budget - n)
+        n += used
+        if x[0] <= tol or n >= budget:
+            break
+    return x, n
