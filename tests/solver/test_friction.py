@@ -1,17 +1,23 @@
 """Coulomb friction against exact answers: the law itself, two pads holding a ball against
 its weight, a frictional patch test, a block on an incline."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 import fem
 from contact.errors import ContactError
 from contact.geometry.plane import Plane
+from contact.run import GraspRun
+from contact.scene import load_scene
 from contact.solver import ContactSettings, solve_frame
 from contact.solver.body import ElasticBody
 from contact.solver.friction import SLIP, STICK, solve_friction
 from contact.solver.pairs import ContactPair
 from contact.solver.tangential import tangent_basis
+
+ROOT = Path(__file__).resolve().parents[2]
 
 R, E, NU, RHO = 0.02, 1.0e5, 0.45, 1000.0
 NU_PATCH = 0.3
@@ -86,8 +92,11 @@ def test_the_tangent_basis_is_orthonormal_and_the_same_for_the_same_normal():
 # ---------------------------------------------------------------------- two pads
 
 
+_PADS_MESH = fem.ball_mesh(R, R / 6)
+
+
 def _pads(weight, mu=0.5, press=5e-4):
-    mesh = fem.ball_mesh(R, R / 6)
+    mesh = _PADS_MESH
     mat = fem.LinearElastic(E, NU, RHO)
     g = fem.gravity_load(mesh, mat, (0.0, 0.0, -1.0))
     loads = g / -g[2::3].sum() * weight
@@ -121,6 +130,9 @@ def test_two_pads_hold_a_ball_up_to_twice_mu_n(squeeze, factor):
     # the ball in balance, the cone held, the motion along gravity only elastic
     ball = res.contact_force["ball"].sum(axis=0) + loads.reshape(-1, 3).sum(axis=0)
     assert np.abs(ball).max() <= 1e-10 * weight
+    f = res.contact_force["ball"] + loads.reshape(-1, 3)
+    moment = np.cross(_PADS_MESH.points, f).sum(axis=0)
+    assert np.abs(moment).max() <= 1e-10 * weight * R
     assert res.friction.max_cone_use <= 1 + 1e-9
     assert res.friction.residual <= res.friction.tolerance
     # (Mindlin's tangential compliance of the pads' patches: a fraction of a millimetre)
@@ -215,6 +227,17 @@ def test_a_frictional_patch_sticks_uniformly_below_mu_p_and_slides_above():
 
 
 
+def test_without_friction_anchors_change_nothing():
+    # mu = 0: the frictionless path, whatever the anchors of an earlier frame say
+    p = 1.0e3
+    eps_p = np.diag([NU_PATCH * p / E, NU_PATCH * p / E, -p / E])
+    first, _ = _block(lambda b: _block_loads(b, eps_p, (0, 0, p)), 0.0)
+    again, _ = _block(lambda b: _block_loads(b, eps_p, (0, 0, p)), 0.0, first.anchors)
+    assert first.friction is None and again.friction is None
+    assert np.array_equal(first.contact_force["block"], again.contact_force["block"])
+    assert len(first.anchors) == first.contacts["node"].size
+
+
 # ---------------------------------------------------------------------- incline
 
 
@@ -255,3 +278,42 @@ def test_the_seed_loop_refuses_friction():
     with pytest.raises(ContactError, match="seed loop takes no friction"):
         solve_frame([body], [ContactPair(body, floor, friction=0.2)], [floor],
                     ContactSettings(algorithm="seed"))
+
+
+# ---------------------------------------------------------------------- the hand
+
+
+def _moment(points, forces, about):
+    return np.cross(points - about, forces).sum(axis=0)
+
+
+def test_a_frictional_hand_holds_the_example_ball_in_balance(tmp_path):
+    # the README example with skin friction 0.5: two-way rows between skin and ball, a
+    # frictionless bowl; every frame held, the ball in balance in force and moment
+    text = (ROOT / "examples" / "grasp.toml").read_text().replace(
+        "[hand]\n", "[hand]\nfriction = 0.5\n", 1
+    )
+    path = tmp_path / "grasp.toml"
+    path.write_text(text)
+    run = GraspRun(load_scene(path))
+    for t in (0.0, 0.5, 1.0):
+        res, _, _, bodies = run.frame(t)
+        assert res.converged and res.held, (t, res.stop_reason)
+        assert res.friction.residual <= 1e-12 and res.friction.max_cone_use <= 1 + 1e-12
+        assert res.friction.stick + res.friction.slip > 0
+        ball = bodies[0]
+        f = res.contact_force["ball"] + ball.loads.reshape(-1, 3)
+        scale = np.abs(res.contact_force["ball"]).sum()
+        size = np.ptp(ball.mesh.points, axis=0).max() / 2
+        assert np.abs(f.sum(axis=0)).max() <= 1e-10 * scale
+        # moments about the centre, on the reference placement (linear kinematics)
+        centre = ball.mesh.points.mean(axis=0)
+        moment = np.cross(ball.mesh.points - centre, f).sum(axis=0)
+        assert np.abs(moment).max() <= 1e-10 * scale * size
+        # action and reaction: ball, hand and planes sum to zero
+        total = (
+            res.contact_force["ball"].sum(axis=0)
+            + res.contact_force["hand"].sum(axis=0)
+            + sum(res.obstacle_forces.values())
+        )
+        assert np.abs(total).max() <= 1e-10 * scale
