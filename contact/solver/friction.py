@@ -175,32 +175,38 @@ class _Problem:
         j[rows[closed], :] = self.cp[closed, None] * wg[rows[closed]]
         j[rows[~closed], rows[~closed]] = 1.0
         stick, q, nz, radius = s["stick"], s["q"], s["nz"], s["radius"]
-        for c_, (ti, p) in enumerate(zip(t, fr)):
-            if stick[c_]:
-                j[ti, :] = self.ct[c_] * wg[ti]
-                continue
-            # slip (or an open contact: radius 0, F_t = lam_t)
-            jt = np.zeros((2, n))
-            jt[0, ti[0]] = jt[1, ti[1]] = 1.0
-            if radius[c_] > 0:
-                qc = q[c_]
-                dxi = -self.cp[p] * wg[p]
-                dxi[p] += 1.0
-                dz = jt.copy() - self.ct[c_] * wg[ti]
-                # Hueber, Stadler and Wohlmuth's slip derivative: the exact one has
-                # r q q^T dz / |z| where this has the force projected on the cone; they
-                # agree at a solution (lam_t = r q), and this one does not stall
-                lt = s["lt"][c_]
-                size = float(np.linalg.norm(lt))
-                cone = lt * min(1.0, radius[c_] / size) if size > 0 else lt
-                mu = self.mu[p] if self.fixed is None else 0.0
-                jt = (
-                    jt
-                    - mu * np.outer(qc, dxi)
-                    - (radius[c_] / nz[c_]) * dz
-                    + np.outer(cone, qc) @ dz / nz[c_]
-                )
-            j[ti, :] = jt
+        if fr.size:
+            # stick: the tangential rows close, c_t s = 0
+            st = np.flatnonzero(stick)
+            j[t[st].ravel(), :] = (self.ct[st, None, None] * wg[t[st]]).reshape(-1, n)
+            # open (radius 0): F_t = lam_t
+            op = np.flatnonzero(~stick & (radius <= 0))
+            j[t[op, 0], t[op, 0]] = 1.0
+            j[t[op, 1], t[op, 1]] = 1.0
+            # slip: d F_t = d lam_t - mu q d xi + A d z, d z = d lam_t - c_t d s, with
+            # A = (cone q^T - r I) / |z| (Hueber, Stadler and Wohlmuth's slip derivative:
+            # the exact one has r q q^T where this has the force projected on the cone;
+            # they agree at a solution, lam_t = r q, and this one does not stall)
+            sl = np.flatnonzero(~stick & (radius > 0))
+            if sl.size:
+                ts, ps, qs = t[sl], fr[sl], q[sl]
+                lt = s["lt"][sl]
+                size = np.linalg.norm(lt, axis=1)
+                shrink = np.minimum(1.0, radius[sl] / np.maximum(size, 1e-300))
+                cone = lt * shrink[:, None]
+                amat = (cone[:, :, None] * qs[:, None, :] - radius[sl, None, None] * np.eye(2))
+                amat /= nz[sl, None, None]
+                mu = self.mu[ps] if self.fixed is None else np.zeros(sl.size)
+                blk = -self.ct[sl, None, None] * np.einsum("cij,cjn->cin", amat, wg[ts])
+                blk += (mu * self.cp[ps])[:, None, None] * qs[:, :, None] * wg[ps][:, None, :]
+                rows = ts.ravel()
+                j[rows, :] = blk.reshape(-1, n)
+                eye = np.eye(2) + amat  # d lam_t (1 + A)
+                for a_ in range(2):
+                    for b_ in range(2):
+                        j[ts[:, a_], ts[:, b_]] += eye[:, a_, b_]
+                j[ts[:, 0], ps] -= mu * qs[:, 0]
+                j[ts[:, 1], ps] -= mu * qs[:, 1]
         j[m:, :m] = BALANCE_WEIGHT * self.g.T
         return j
 
