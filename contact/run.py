@@ -83,6 +83,7 @@ class GraspRun:
     _hand_key: bytes = field(default=b"", init=False)
     _pose: Pose | None = field(default=None, init=False)
     anchors: Anchors | None = field(default=None, init=False)
+    _last_time: float | None = field(default=None, init=False, repr=False)
 
     def __post_init__(self) -> None:
         sc = self.scene
@@ -240,6 +241,10 @@ class GraspRun:
     ) -> tuple[FrameResult, dict, list[Plane], list[ElasticBody]]:
         """Set up and solve the frame at time ``t``, from the last frame's anchors.
 
+        With friction and ``solver.substeps = n > 1``, the steps of time between the last
+        frame solved and ``t`` are solved first (``n - 1`` of them, not returned), each
+        carrying the anchors to the next.
+
         Parameters
         ----------
         t : float
@@ -259,6 +264,18 @@ class GraspRun:
         bodies : list of ElasticBody
             The ball, then the hand.
         """
+        n = self.scene.solver.substeps
+        last = self._last_time
+        if n > 1 and last is not None and t > last and self.scene.frictional:
+            for i in range(1, n):
+                self._solve(last + (t - last) * i / n, None)
+        self._last_time = t
+        return self._solve(t, callback)
+
+    def _solve(
+        self, t: float, callback: Callable[[IterationRecord], None] | None
+    ) -> tuple[FrameResult, dict, list[Plane], list[ElasticBody]]:
+        """Set up and solve the contact at time ``t``, carrying the anchors."""
         sc = self.scene
         t0 = time.perf_counter()
         ball = self.ball_body(t)

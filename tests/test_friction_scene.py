@@ -8,10 +8,12 @@ frame to frame; ``--frames`` replaying the history before the frames it writes.
 
 from __future__ import annotations
 
+import itertools
 import json
 from pathlib import Path
 from types import SimpleNamespace
 
+import numpy as np
 import pytest
 
 import contact.grasp
@@ -269,6 +271,39 @@ def test_anchors_are_carried_from_frame_to_frame(
     assert run.anchors is calls[2]["token"]
 
 
+def test_substeps_solve_the_steps_between_frames(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    calls = _record(monkeypatch)
+    moves: list[float] = []
+    fake = contact.run.solve_frame
+
+    def spy(bodies, pairs, planes, settings, **kw):
+        moves.append(float(planes[0].motion[0]))  # the left pad moves 1 mm per unit time
+        return fake(bodies, pairs, planes, settings, **kw)
+
+    monkeypatch.setattr(contact.run, "solve_frame", spy)
+    path = pinch(tmp_path)
+    path.write_text(path.read_text().replace("[solver]\n", "[solver]\nsubsteps = 4\n"))
+    run = GraspRun(load_scene(path))
+    run.frame(0.5)  # the first frame: one step from rest
+    run.frame(1.0)  # four steps from 0.5
+    assert np.allclose(np.array(moves) / 1e-3, [0.5, 0.625, 0.75, 0.875, 1.0])
+    for before, after in itertools.pairwise(calls):
+        assert after["anchors"] is before["token"]
+    # without friction nothing is sub-stepped
+    calls.clear()
+    moves.clear()
+    frictionless = pinch(tmp_path, left="", right="", name="plain.toml")
+    frictionless.write_text(
+        frictionless.read_text().replace("[solver]\n", "[solver]\nsubsteps = 4\n")
+    )
+    run = GraspRun(load_scene(frictionless))
+    run.frame(0.5)
+    run.frame(1.0)
+    assert len(moves) == 2
+
+
 # --- the seed loop ----------------------------------------------------------------
 
 
@@ -384,7 +419,7 @@ def test_help_says_frames_replay() -> None:
 def test_docs_say_the_history_rule() -> None:
     text = " ".join((ROOT / "docs" / "scene.md").read_text().split())
     assert "`--frames` replays the history" in text
-    assert "Each frame is one solve: nothing sub-steps a frame" in text
+    assert "`solver.substeps = n` solves each frame after the first in `n` equal steps" in text
 
 
 def test_pinch_example_reads() -> None:

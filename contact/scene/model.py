@@ -256,12 +256,22 @@ class SolverScene:
     linear_solver : str
         One of :data:`LINEAR_SOLVERS`: ``"auto"`` (the first available) or a backend of
         :mod:`fem.linsolve`.
+    substeps : int
+        With friction, each frame after the first is solved in this many equal steps of
+        time from the frame before (the steps between carry the stick anchors and are
+        not written), so that a squeeze and a tangential load that change together
+        slip along the way, not only at the frame's end. >= 1.
     """
 
     contact: ContactSettings = field(default_factory=ContactSettings)
     linear_solver: str = "auto"
+    substeps: int = 1
 
     def __post_init__(self) -> None:
+        if isinstance(self.substeps, bool) or not isinstance(self.substeps, int) or (
+            self.substeps < 1
+        ):
+            raise invalid("substeps", self.substeps, "must be an integer >= 1")
         if self.linear_solver not in LINEAR_SOLVERS:
             raise invalid(
                 "linear_solver",
@@ -274,10 +284,11 @@ class SolverScene:
         return replace(self.contact, support_limits=dict(support_limits))
 
     def echo(self) -> dict:
-        """The table as the file lays it out: :data:`CONTACT_KEYS`, then ``linear_solver``."""
+        """The table as the file lays it out: :data:`CONTACT_KEYS`, then the scene's own."""
         return {
             **{k: getattr(self.contact, k) for k in CONTACT_KEYS},
             "linear_solver": self.linear_solver,
+            "substeps": self.substeps,
         }
 
 

@@ -222,7 +222,9 @@ def _check_planes(
 
 def _read_solver(r: SceneReader, data: dict) -> SolverScene:
     """``[solver]``: the contact settings (:class:`ContactSettings` checks them) and more."""
-    s = r.table(data.get("solver", {}), "solver", optional=(*CONTACT_KEYS, "linear_solver"))
+    s = r.table(
+        data.get("solver", {}), "solver", optional=(*CONTACT_KEYS, "linear_solver", "substeps")
+    )
     kw: dict[str, Any] = {}
     for key in ("algorithm", "relaxation"):
         if key in s:
@@ -244,6 +246,8 @@ def _read_solver(r: SceneReader, data: dict) -> SolverScene:
     more = {}
     if "linear_solver" in s:
         more["linear_solver"] = r.string(s["linear_solver"], "solver.linear_solver")
+    if "substeps" in s:
+        more["substeps"] = r.integer(s["substeps"], "solver.substeps", minimum=1)
     return r.build("solver", SolverScene, contact, **more)
 
 

@@ -32,6 +32,14 @@ class Anchors:
     point : ndarray, shape (k, 3)
         Against a plane: the anchor point less the plane's motion (m), so that it moves
         with the plane; NaN against a body.
+    displacement : dict of str to ndarray
+        Each body's displacements ``(N, 3)`` at the end of the frame: where the next
+        frame's first contact search looks, so that a contact met in it is anchored
+        where its node was at the step's start, not at rest.
+    motion : dict of str to ndarray
+        Each plane's motion ``(3,)`` at the end of the frame: a contact the next frame
+        meets against a plane is anchored at the plane's material point under the node
+        at the step's start.
     """
 
     pair: NDArray = field(default_factory=lambda: np.zeros(0, dtype=object))
@@ -39,6 +47,8 @@ class Anchors:
     facet: NDArray[np.int64] = field(default_factory=lambda: np.zeros((0, 3), np.int64))
     weights: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)))
     point: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)))
+    displacement: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+    motion: dict[str, NDArray[np.float64]] = field(default_factory=dict)
 
     def __len__(self) -> int:
         return int(self.node.size)

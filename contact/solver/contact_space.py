@@ -68,7 +68,7 @@ def solve_contact_space(frame: FrameState, anchors: Anchors | None = None) -> Fr
     contacts = frame.contacts
     friction = Friction(frame, anchors)
     space = ContactSpace(frame.bodies, rotations=friction.active)
-    u = {b.name: np.zeros((b.mesh.n_points, 3)) for b in frame.bodies}
+    u = friction.start()
     # step 2 (first time): every node inside or near its master, as candidates
     rows, _, _ = contacts.new_rows(ContactRows(), u, touching=True, near=contactset.NEAR)
     if friction.active:

@@ -51,6 +51,8 @@ class Friction:
 
     def __init__(self, frame, anchors: Anchors | None = None) -> None:
         self.frame = frame
+        self.previous = {} if anchors is None else anchors.displacement
+        self.motion = {} if anchors is None else anchors.motion
         self.mu = np.array([float(p.friction) for p in frame.pairs])
         self.active = bool((self.mu > 0).any())
         index = {p.name: i for i, p in enumerate(frame.pairs)}
@@ -66,6 +68,20 @@ class Friction:
         self.system: tuple | None = None
 
     # ------------------------------------------------------------------ anchors
+    def start(self) -> dict[str, NDArray]:
+        """Where the frame's first search looks: each body as the last frame left it.
+
+        Bodies whose mesh changed (another number of nodes) start at rest. Without
+        friction the search starts at rest, as it always has.
+        """
+        out = {}
+        for b in self.frame.bodies:
+            prev = self.previous.get(b.name) if self.active else None
+            shape = (b.mesh.n_points, 3)
+            same = prev is not None and prev.shape == shape
+            out[b.name] = prev.copy() if same else np.zeros(shape)
+        return out
+
     def register(self, rows: ContactRows, u: dict[str, NDArray]) -> None:
         """Anchor every frictional contact of ``rows`` met for the first time where it is now."""
         pairs = self.frame.pairs
@@ -75,8 +91,12 @@ class Friction:
                 continue
             pair = pairs[key[0]]
             if pair.rigid:
+                # the plane's material point under the node, the plane where the step
+                # started (where the last frame left it), the node where it is now
+                plane = pair.master
+                motion = self.motion.get(plane.name, plane.motion)
                 x = pair.slave.mesh.points[key[1]] + u[pair.slave.name][key[1]]
-                point = pair.master.project(x[None])[0] - pair.master.motion
+                point = plane.moved(motion).project(x[None])[0] - motion
                 self.anchor[key] = (np.full(3, -1, np.int64), np.zeros(3), point)
             else:
                 self.anchor[key] = (
@@ -271,4 +291,6 @@ def end_anchors(
         facet=facets,
         weights=weights,
         point=points,
+        displacement={name: np.array(v, dtype=np.float64) for name, v in u.items()},
+        motion={pl.name: pl.motion.copy() for pl in frame.planes},
     )

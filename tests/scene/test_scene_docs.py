@@ -70,7 +70,7 @@ OWNERS: dict[str, dict[str, Any]] = {
     "[[plane]]": _defaults(PlaneScene),
     "[solver]": {
         **_defaults(ContactSettings, CONTACT_KEYS),
-        **_defaults(SolverScene, ("linear_solver",)),
+        **_defaults(SolverScene, ("linear_solver", "substeps")),
     },
     "[output]": _defaults(OutputScene),
 }
