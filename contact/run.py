@@ -15,7 +15,9 @@ For every frame, after Gourret, Magnenat-Thalmann and Thalmann (1989, Fig. 9):
 (again only when a joint turns it), the hand once per pose, the previous pose
 warm-starts the next, and friction's stick anchors of the last frame solved are where the
 next frame's slip is measured from. Frames must therefore be solved in time order when
-the scene has friction. Writing the results is the caller's (:mod:`contact.grasp`).
+the scene has friction. At the scene's start it warns of a ball placed inside the skin
+or a plane (:meth:`GraspRun.warn_overlaps`). Writing the results is the caller's
+(:mod:`contact.grasp`).
 """
 
 from __future__ import annotations
@@ -44,7 +46,7 @@ from .scene.spec import Scene
 from .solver.anchors import Anchors
 from .solver.body import ElasticBody
 from .solver.iteration import solve_frame
-from .solver.pairs import ContactPair
+from .solver.pairs import ContactPair, measure
 from .solver.results import FrameResult, IterationRecord
 
 __all__ = ["GraspRun"]
@@ -84,6 +86,7 @@ class GraspRun:
     _pose: Pose | None = field(default=None, init=False)
     anchors: Anchors | None = field(default=None, init=False)
     _last_time: float | None = field(default=None, init=False, repr=False)
+    _started: bool = field(default=False, init=False, repr=False)
 
     def __post_init__(self) -> None:
         sc = self.scene
@@ -234,6 +237,41 @@ class GraspRun:
                     "or close the hand less"
                 )
 
+    def warn_overlaps(self, t: float, bodies: list[ElasticBody], tolerance: float) -> None:
+        """Warn where the ball starts inside the skin or a plane deeper than the tolerance.
+
+        Called at the scene's start (the first frame solved), before any contact solve:
+        the hand as posed there, the planes at their scene positions (their motion is how
+        a scene presses, not a misplaced ball). A node deeper than ``tolerance`` times its
+        element size (``solver.gap_tolerance``) gives one log line for its pair, naming
+        the deepest node and its depth.
+        """
+        ball = bodies[0]
+        planes = [Plane(p.point, p.normal, name=p.name) for p in self.scene.planes]
+        pairs = [ContactPair(ball, pl) for pl in planes]
+        for other in bodies[1:]:
+            pairs += [ContactPair(ball, other), ContactPair(other, ball)]
+        u = {b.name: np.zeros((b.mesh.n_points, 3)) for b in bodies}
+        for pair in pairs:
+            p, _ = measure(pair, u, 0.0)
+            if not p.nodes.size:
+                continue
+            local = np.sqrt(np.maximum(pair.slave.node_areas[p.nodes], 1e-300))
+            k = int(np.argmax(-p.gap / local))
+            if -p.gap[k] <= tolerance * local[k]:
+                continue
+            log.warning(
+                "t = %g: %s overlap at the start: node %d of %s is %.3g mm inside %s "
+                "(gap tolerance %.3g mm)",
+                t,
+                pair.name,
+                int(p.nodes[k]),
+                pair.slave.name,
+                -float(p.gap[k]) * 1e3,
+                pair.master.name,
+                tolerance * local[k] * 1e3,
+            )
+
     # --- one frame -----------------------------------------------------------------
 
     def frame(
@@ -299,6 +337,9 @@ class GraspRun:
         setup = time.perf_counter() - t0
         # steps 2 to 5
         settings = sc.solver.settings(self.limits)
+        if not self._started:
+            self._started = True
+            self.warn_overlaps(t, bodies, settings.gap_tolerance)
         result = solve_frame(
             bodies, pairs, planes, settings, callback=callback, anchors=self.anchors
         )

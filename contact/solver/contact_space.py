@@ -14,8 +14,9 @@ for each node found inside its master, linearises stale rows again
 new. The set of rows only grows within a frame (rows left far behind by a body that moved
 off are dropped), so the outer loop cannot cycle by releasing and taking the same
 contacts in turn, as it would where rows both ways meet (two-pass node-to-surface contact
-over-constrains there). A free body that the contacts let slide or push away stops the
-frame as not held (:mod:`contact.solver.held`).
+over-constrains there). A free body that the contacts let slide or push away, whose
+loads they cannot balance, or that touches nothing at the end stops the frame as not
+held (:mod:`contact.solver.held`), with the last state kept.
 """
 
 from __future__ import annotations
@@ -25,6 +26,8 @@ import time
 
 import numpy as np
 from numpy.typing import NDArray
+
+import fem
 
 from . import contactset, held
 from .anchors import Anchors
@@ -85,6 +88,7 @@ def solve_contact_space(frame: FrameState, anchors: Anchors | None = None) -> Fr
     slid: tuple[str, dict[str, NDArray[np.float64]]] | None = None
     last_u = u
     last_moves: dict[str, NDArray[np.float64]] = {}
+    unbalanced = ""
     for it in range(1, st.max_iterations + 1):
         key = set_key(rows)
         if key in seen:
@@ -103,7 +107,13 @@ def solve_contact_space(frame: FrameState, anchors: Anchors | None = None) -> Fr
             e = frame.matrices(rows)
             # step 3: the forces that close the rows, with every body's compliance at once
             tol = LCP_TOLERANCE * frame.row_tol(rows)
-            res, states = space.solve_unilateral(e, rows.g0, tol, start)
+            try:
+                res, states = space.solve_unilateral(e, rows.g0, tol, start)
+            except fem.LoadError:
+                # loads out of balance where no contact holds (a ball on a tilted table,
+                # or over none): it slides or falls; the state kept is the contacts'
+                res, states, net = space.solve_held(e, rows.g0, tol)
+                unbalanced = held.unbalanced(net)
             lam = lam_all = res.lam
             steps, settled = res.steps, res.solved
         frame.timings["contact solve"] += time.perf_counter() - t
@@ -126,6 +136,25 @@ def solve_contact_space(frame: FrameState, anchors: Anchors | None = None) -> Fr
         last_u, last_moves = u, moves
         # step 2: measure the deformed bodies; rows added, renewed or left behind
         grown, added, depth = contacts.new_rows(rows, u, False, idle=~closed, before=before)
+        if unbalanced and added:
+            # what it falls or slides into may hold it: solved with the others next
+            unbalanced = ""
+        if unbalanced:
+            frame.record(
+                history,
+                iteration=it,
+                contacts=n_closed,
+                added=0,
+                released=opened,
+                change=change,
+                depth=depth,
+                e=e,
+                lam=lam_all,
+                supports=frame.supports(states),
+                normal_rows=len(rows),
+            )
+            stop = unbalanced
+            break
         if contacts.broken and not friction.active:
             slides += 1
             slid = slid or (held.slipping(moves, contacts.broken), moves)
@@ -186,11 +215,11 @@ def solve_contact_space(frame: FrameState, anchors: Anchors | None = None) -> Fr
             break
         if not added:
             converged, stop = True, "converged"
-            if friction.active:
-                pass  # a frictional solve that settled holds every free body
-            elif slid is not None and not held.holds(frame.bodies, e, lam, slid[1]):
-                converged, stop = False, slid[0]
-            elif out := held.pushed_out(e, lam, moves, frame.local):
+            if not friction.active and slid is not None:
+                if not held.holds(frame.bodies, e, lam, slid[1]):
+                    converged, stop = False, slid[0]
+            # a frictional solve that settled holds every free body it touches
+            if converged and (out := frame.untouched(rows, e, lam, states)):
                 converged, stop = False, out
             break
         start = carried(rows, lam, grown)

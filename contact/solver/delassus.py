@@ -15,6 +15,11 @@ C_b f_b`` each body's answer to its own loads, and ``G = [E_b Phi_b]`` the rigid
 computed once by back-solves with the body's one factorisation and kept
 (:meth:`fem.StaticSolver.compliance`): a contact set that changes by ``k`` rows costs
 ``k`` back-solves per body.
+
+Where the contacts cannot balance a free body's loads (a ball on a tilted frictionless
+table, or with nothing under it) the system has no solution; :meth:`ContactSpace.solve_held`
+then gives the contacts' answer with the body held by a soft spring, and the load that
+the spring, not the contacts, carries: the frame's "not held" result.
 """
 
 from __future__ import annotations
@@ -27,13 +32,21 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 import fem
-from fem.saddle import solve_saddle
+from fem.saddle import RANK_TOL, solve_saddle
 
 from ..errors import ContactError
 from .body import ElasticBody
 from .lcp import LcpResult, solve_lcp
 
-__all__ = ["BodyState", "ContactSpace", "ContactSystem"]
+__all__ = ["SPRING", "TOUCHING", "BodyState", "ContactSpace", "ContactSystem"]
+
+#: The stiffness of the spring that holds a free body the contacts do not
+#: (:meth:`ContactSpace.solve_held`) over the contacts' (the mean diagonal of the Delassus
+#: operator): soft enough that the contacts carry what they can.
+SPRING = 1e-5
+#: The force (over the free bodies' loads) a touching row starts from where the rows that
+#: penetrate cannot hold a free body: the active set then starts with it closed.
+TOUCHING = 1e-9
 
 
 @dataclass(frozen=True)
@@ -244,24 +257,88 @@ class ContactSpace:
 
         Raises
         ------
-        ContactError
-            When the contacts do not hold a free body whose loads are out of balance.
+        fem.LoadError
+            When the contacts do not hold a free body whose loads are out of balance
+            (:meth:`solve_held` answers then).
         """
         with fem.dense_threads(g0.size):  # small dense work: one BLAS thread
             sys_ = self.system(e, g0)
-        try:  # solve_lcp limits its own threads
+        # solve_lcp limits its own threads
+        try:
             res = solve_lcp(
-                sys_.w,
-                sys_.g,
-                sys_.rhs,
-                sys_.c,
-                tol=tol,
-                start=start,
+                sys_.w, sys_.g, sys_.rhs, sys_.c, tol=tol, start=start,
                 load_scale=sys_.load_scale,
             )
         except fem.LoadError:
-            raise ContactError(_unheld(list(sys_.free))) from None
+            # the rows the active set started from hold too little (a ball that rests
+            # on a table it only touches): start again with the touching rows closed
+            touching = -sys_.rhs <= tol
+            again = np.zeros(g0.size) if start is None else np.array(start, dtype=float)
+            if not (touching & (again <= 0)).any():
+                raise
+            again[touching & (again <= 0)] = TOUCHING * max(sys_.load_scale, 1e-300)
+            res = solve_lcp(
+                sys_.w, sys_.g, sys_.rhs, sys_.c, tol=tol, start=again,
+                load_scale=sys_.load_scale,
+            )
         return res, self.states(e, res.lam, res.a)
+
+    def solve_held(
+        self, e: dict[str, sp.csr_matrix], g0: NDArray[np.float64], tol: NDArray[np.float64]
+    ) -> tuple[LcpResult, dict[str, BodyState], dict[str, NDArray[np.float64]]]:
+        """The frictionless LCP with every free body also held by a soft spring.
+
+        For rows whose contacts cannot balance a free body's loads
+        (:meth:`solve_unilateral` raises): the spring (:data:`SPRING`) makes the problem
+        solvable, the contacts carry what they can and the spring the rest. The body is
+        left where its pushing rows place it: the spring's stretch along the modes no
+        pushing row holds, which only says that the body goes away, is dropped.
+
+        Parameters
+        ----------
+        e, g0, tol
+            As for :meth:`solve_unilateral`.
+
+        Returns
+        -------
+        result : LcpResult
+            The rows' forces and the free bodies' mode amplitudes.
+        states : dict of str to BodyState
+        net : dict of str to ndarray, shape (3,)
+            Each free body's net force, loads and contact forces together (N): the part
+            of its loads that no contact carries.
+        """
+        m = g0.size
+        with fem.dense_threads(m):
+            sys_ = self.system(e, g0)
+            w, g, c = sys_.w, sys_.g, sys_.c
+            dw = float(np.mean(np.diag(w))) if m else 1.0
+            dg = float(np.mean(np.einsum("ij,ij->i", g, g))) if m else 0.0
+            soft = SPRING * (dg if dg > 0 else 1.0) / max(dw, 1e-300)
+            res = solve_lcp(
+                w + g @ g.T / soft,
+                np.zeros((m, 0)),
+                sys_.rhs + g @ c / soft,
+                np.zeros(0),
+                tol=tol,
+                load_scale=sys_.load_scale,
+            )
+            carried = g.T @ res.lam - c  # what the springs hold, in the modes
+            push = g[res.lam > 0]
+            _, sv, vt = np.linalg.svd(push, full_matrices=False)
+            big = sv > RANK_TOL * sv.max() if sv.size and sv.max() > 0 else np.zeros(0, bool)
+            held = vt[big]  # the modes the pushing rows hold
+            a = held.T @ (held @ (carried / soft))
+        net = {}
+        k = 0
+        for body in self.bodies:
+            if body.solver.free_body:
+                phi = self.placing(body)
+                r = phi.shape[1]
+                net[body.name] = (phi @ carried[k : k + r]).reshape(-1, 3).sum(axis=0)
+                k += r
+        out = LcpResult(res.lam, a, res.gap, res.steps, res.solved)
+        return out, self.states(e, res.lam, a), net
 
 
 def _saddle(

@@ -22,7 +22,7 @@ import fem
 
 from ..errors import ContactError
 from ..geometry.plane import Plane
-from . import contactset
+from . import contactset, held
 from .anchors import Anchors
 from .body import ElasticBody
 from .contactset import ContactSet, first_set
@@ -328,6 +328,25 @@ class FrameState:
             r = gap / self.local[pair.slave.name][nodes]
             out = max(out, float(np.max(np.minimum(r, 1.0), initial=0.0)))
         return out
+
+    def untouched(
+        self,
+        rows: ContactRows,
+        e: Mapping[str, sp.csr_matrix],
+        lam: NDArray[np.float64],
+        states: Mapping[str, BodyState],
+    ) -> str:
+        """The stop reason of a free body that no contact holds at the end, or "".
+
+        :func:`contact.solver.held.touches_nothing` for the last solve of the normal rows
+        ``rows`` (forces ``lam``): a body moved when its rigid motion passes the gap
+        tolerance times its largest element size.
+        """
+        moves = held.slides(self.bodies, states)
+        gap = held.end_gaps(rows.g0, e, states)
+        tol = self.row_tol(rows)
+        still = {n: self.settings.gap_tolerance * float(self.local[n].max()) for n in moves}
+        return held.touches_nothing(e, lam, gap, tol, moves, still)
 
     def result(
         self,

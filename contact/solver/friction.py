@@ -56,11 +56,15 @@ TRY_STEPS = 40
 #: ``c_p, c_t`` (the inverse diagonal compliances) and whether steps are searched along
 #: (a backtracking line search on ``|F|^2``) or taken whole: the natural map's roots do
 #: not depend on them, the active sets the steps visit do.
-STRATEGIES = ((1.0, False), (0.3, False), (0.1, False), (3.0, False), (1.0, True),
-              (0.3, True))
+STRATEGIES = ((1.0, False), (0.3, False), (0.1, False), (3.0, False), (1.0, True), (0.3, True))
 #: Newton steps that polish a solve past the tolerance, towards :data:`POLISH_TOL`.
 POLISH = 3
 POLISH_TOL = 1e-14
+#: A contact's tangential compliance block below this fraction of the largest diagonal
+#: is taken as held both ways (no friction there).
+DEGENERATE = 1e-10
+#: The shift, over the largest Jacobian entry, of a singular Newton system.
+SHIFT = 1e-10
 #: Tresca solves of the last resort (each with the radii of the last normal forces).
 TRESCA = 30
 
@@ -115,11 +119,17 @@ class _Problem:
         self.w, self.g, self.rhs, self.c = w, g, rhs, c
         self.k = mu.size
         self.m, self.r = g.shape
-        self.mu = mu
         self.fr = np.flatnonzero(tangent[:, 0] >= 0)  # contacts with friction
         self.t = tangent[self.fr]  # (kf, 2) their tangential rows
         d = np.diag(w).copy()
         floor = 1e-12 * max(float(d.max(initial=0.0)), 1e-300)
+        # a contact whose tangential rows no body can move along (a node on a symmetry
+        # plane: both bodies held across it) takes no friction: its rows stay at zero
+        self.mu = mu.copy()
+        if self.fr.size:
+            tt = w[self.t[:, :, None], self.t[:, None, :]]  # (kf, 2, 2)
+            least = np.linalg.eigvalsh(tt)[:, 0]
+            self.mu[self.fr[least <= DEGENERATE * max(float(d.max()), 1e-300)]] = 0.0
         self.cp = 1.0 / np.maximum(d[: self.k], floor)
         dt = d[self.t].mean(axis=1) if self.fr.size else np.zeros(0)
         self.ct = 1.0 / np.maximum(dt, floor)
@@ -161,7 +171,12 @@ class _Problem:
         # rows of the system that belong to no contact's normal or tangent: none
         f[self.m :] = BALANCE_WEIGHT * (self.g.T @ lam - self.c)
         return f, {
-            "closed": closed, "stick": stick, "q": q, "nz": nz, "radius": radius, "y": y,
+            "closed": closed,
+            "stick": stick,
+            "q": q,
+            "nz": nz,
+            "radius": radius,
+            "y": y,
             "lt": lt,
         }
 
@@ -194,7 +209,7 @@ class _Problem:
                 size = np.linalg.norm(lt, axis=1)
                 shrink = np.minimum(1.0, radius[sl] / np.maximum(size, 1e-300))
                 cone = lt * shrink[:, None]
-                amat = (cone[:, :, None] * qs[:, None, :] - radius[sl, None, None] * np.eye(2))
+                amat = cone[:, :, None] * qs[:, None, :] - radius[sl, None, None] * np.eye(2)
                 amat /= nz[sl, None, None]
                 mu = self.mu[ps] if self.fixed is None else np.zeros(sl.size)
                 blk = -self.ct[sl, None, None] * np.einsum("cij,cjn->cin", amat, wg[ts])
@@ -220,16 +235,24 @@ def _size(f: NDArray, m: int) -> float:
 
 
 def _step(j: NDArray, f: NDArray) -> NDArray:
-    """Newton step ``J d = -F``; least squares where ``J`` is singular (a mode nothing holds)."""
-    try:
-        lu = sla.lu_factor(j, check_finite=False)
-        d = sla.lu_solve(lu, -f, check_finite=False)
-        if np.isfinite(d).all() and np.linalg.norm(j @ d + f) <= 1e-8 * max(
-            np.linalg.norm(f), 1e-300
+    """Newton step ``J d = -F``.
+
+    Where ``J`` is singular (rows that repeat one another, a mode nothing holds), the
+    step of ``J + delta I`` (a tiny shift) where it solves ``J d = -F`` nearly as well,
+    else least squares.
+    """
+    size = max(float(np.linalg.norm(f)), 1e-300)
+    for shift in (0.0, SHIFT * max(float(np.abs(j).max(initial=0.0)), 1e-300)):
+        try:
+            lu = sla.lu_factor(j + shift * np.eye(j.shape[0]) if shift else j, check_finite=False)
+            d = sla.lu_solve(lu, -f, check_finite=False)
+        except (np.linalg.LinAlgError, ValueError):
+            continue
+        if (
+            np.isfinite(d).all()
+            and np.linalg.norm(j @ d + f) <= (1e-8 if not shift else 1e-6) * size
         ):
             return d
-    except (np.linalg.LinAlgError, ValueError):
-        pass
     return np.linalg.lstsq(j, -f, rcond=1e-12)[0]
 
 
@@ -277,8 +300,18 @@ def solve_friction(
     FrictionResult
     """
     with dense_threads(np.size(rhs)):
-        return _newton(w, g, rhs, c, np.asarray(mu, float), np.asarray(tangent, np.int64),
-                       start, load_scale, tol, max_steps)
+        return _newton(
+            w,
+            g,
+            rhs,
+            c,
+            np.asarray(mu, float),
+            np.asarray(tangent, np.int64),
+            start,
+            load_scale,
+            tol,
+            max_steps,
+        )
 
 
 def _newton(w, g, rhs, c, mu, tangent, start, load_scale, tol, max_steps) -> FrictionResult:

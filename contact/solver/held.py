@@ -3,8 +3,12 @@
 Frictionless contacts hold a free body only where their normals enclose it. Where they
 do not (a ball pushed towards the open side of a hand, fingers closing on a ball with
 nothing behind it), the linear solve slides or pushes the body rigidly until its
-linearised contacts balance or open. These functions tell such a frame apart from one
-whose contacts hold the body, and say why it stopped.
+linearised contacts balance or open; where its loads (gravity) are out of balance in a
+direction no contact holds (a ball on a tilted table, or with nothing under it), no
+placement balances it. These functions tell such a frame apart from one whose contacts
+hold the body, and say why it stopped: every reason starts with ``"not held: "``
+(:func:`contact.solver.fields.held_verdict` reads it). A free body that touches nothing
+at the end of a frame is never held, however little it moved.
 """
 
 from __future__ import annotations
@@ -21,12 +25,14 @@ from .delassus import BodyState
 __all__ = [
     "HELD_COS",
     "JUMP",
-    "PUSHED_OUT",
     "SLIDES",
+    "end_gaps",
+    "free_load",
     "holds",
-    "pushed_out",
     "slides",
     "slipping",
+    "touches_nothing",
+    "unbalanced",
 ]
 
 #: A solve that moves a free body rigidly by more than this many element sizes (the
@@ -40,9 +46,6 @@ SLIDES = 3
 #: A body that slid is held when the unit slide direction keeps at least this length
 #: in the span of the normals of the rows that push it.
 HELD_COS = 0.5
-#: A free body that moved rigidly by more than this many of its element sizes and that
-#: no contact pushes at the end was pushed out of contact (not held).
-PUSHED_OUT = 0.5
 
 
 def slides(
@@ -77,44 +80,103 @@ def slipping(moves: Mapping[str, NDArray[np.float64]], broken: int) -> str:
     )
 
 
-def pushed_out(
+def touches_nothing(
     e: Mapping[str, sp.csr_matrix],
     lam: NDArray[np.float64],
+    gap: NDArray[np.float64],
+    tol: NDArray[np.float64],
     moves: Mapping[str, NDArray[np.float64]],
-    local: Mapping[str, NDArray[np.float64]],
+    still: Mapping[str, float],
 ) -> str:
-    """The stop reason of a free body the contacts pushed off, or "" if none was.
+    """The stop reason of a free body that no contact pushes at the end, or "" if none.
 
-    A free body that moved rigidly by more than ``PUSHED_OUT`` of its element size and
-    that no contact pushes at the end was pushed out of contact: frictionless contacts
-    that do not enclose it push it away until they open. Any place further along
-    balances too, so the frame does not say where it is.
+    Such a body is held by nothing: frictionless contacts that do not enclose it pushed
+    it away until they opened (any place further along balances too), or nothing ever
+    touched it. A body that did not move and rests on contacts at zero force (nothing
+    loads it: two plates touching a ball before they press) is left alone. The reason
+    gives the body's rigid motion in the frame's solve.
 
     Parameters
     ----------
     e : mapping of str to sparse matrix
-        Each body's part ``E_b`` of the rows.
+        Each body's part ``E_b`` of the rows; with friction the normal rows come first,
+        one for each entry of ``lam``.
     lam : ndarray, shape (m,)
-        The rows' forces.
+        The normal rows' forces (N).
+    gap : ndarray, shape (m,)
+        The normal rows' linearised gaps at the end (m).
+    tol : ndarray, shape (m,)
+        The rows' penetration tolerances (m): a row within it of closing touches.
     moves : mapping of str to ndarray
-        The bodies' rigid translations (:func:`slides`).
-    local : mapping of str to ndarray
-        Each body's element size at every node (m).
+        The free bodies' rigid translations (:func:`slides`).
+    still : mapping of str to float
+        Each free body's motion (m) below which it did not move.
     """
+    m = lam.size
     for name, move in moves.items():
-        dist = float(np.linalg.norm(move))
-        if dist <= PUSHED_OUT * float(local[name].max()):
-            continue  # a nudge (a ball settling in a frictionless bowl)
         eb = e.get(name)
-        if eb is not None and (lam > 0).any() and eb[lam > 0].nnz:
+        mine = eb[:m].getnnz(axis=1) > 0 if eb is not None and m else np.zeros(m, bool)
+        if (mine & (lam > 0)).any():
             continue
-        d = move / dist
+        dist = float(np.linalg.norm(move))
+        if dist <= still[name] and (mine & (gap <= tol)).any():
+            continue
+        d = move / dist if dist > 0 else np.zeros(3)
         return (
-            f"not held: {name} pushed out of contact, {dist * 1e3:.3g} mm along "
-            f"[{d[0]:.2f}, {d[1]:.2f}, {d[2]:.2f}], and no contact holds it "
-            "(frictionless contacts hold a free body only where they enclose it)"
+            f"not held: {name} touches nothing (moved {dist * 1e3:.3g} mm along "
+            f"({d[0]:.3f}, {d[1]:.3f}, {d[2]:.3f})); frictionless contacts hold a free "
+            "body only where they enclose it"
         )
     return ""
+
+
+def end_gaps(
+    g0: NDArray[np.float64],
+    e: Mapping[str, sp.csr_matrix],
+    states: Mapping[str, BodyState],
+) -> NDArray[np.float64]:
+    """The linearised gaps ``g0 + sum_b E_b u_b`` of the first ``len(g0)`` rows (m)."""
+    gap = np.array(g0, dtype=np.float64)
+    for name, eb in e.items():
+        if gap.size:
+            gap += eb[: gap.size] @ states[name].u
+    return gap
+
+
+def unbalanced(net: Mapping[str, NDArray[np.float64]]) -> str:
+    """The stop reason of free bodies whose loads the contacts cannot balance.
+
+    ``net`` is each such body's net force, loads and contact forces together (N): the
+    part of its loads no contact carries, and so the way it would move (slide or fall).
+    The body with the largest is named.
+    """
+    name, force = max(net.items(), key=lambda kv: float(np.linalg.norm(kv[1])))
+    size = float(np.linalg.norm(force))
+    if size == 0.0:  # out of balance only in a turn (a moment no contact carries)
+        return f"not held: {name} turns: no contact carries the moment of its loads"
+    d = force / size
+    return (
+        f"not held: {name} moves along ({d[0]:.3f}, {d[1]:.3f}, {d[2]:.3f}): {size:.4g} N "
+        "of its loads is carried by no contact (frictionless contacts hold a free body "
+        "only where they enclose it)"
+    )
+
+
+def free_load(body: ElasticBody, eb: sp.csr_matrix | None) -> NDArray[np.float64]:
+    """The part of a free body's net load (N) in the translations rows ``eb`` leave free.
+
+    The rows hold the body along the span of their directions (both ways: prescribed
+    rows); the rest of its net load has nothing to carry it.
+    """
+    force = body.loads.reshape(-1, 3).sum(axis=0)
+    if eb is None or not eb.shape[0]:
+        return force
+    # each row's value of a unit translation along x, y and z: its direction
+    t = np.column_stack([np.asarray(eb[:, k::3].sum(axis=1)).ravel() for k in range(3)])
+    _, sv, vt = np.linalg.svd(t, full_matrices=True)
+    rank = int((sv > 1e-8 * sv.max()).sum()) if sv.size and sv.max() > 0 else 0
+    free = vt[rank:]
+    return free.T @ (free @ force)
 
 
 def holds(
@@ -129,7 +191,7 @@ def holds(
     the rows that push it span the slide's direction: a wall or another finger caught
     it. Otherwise it slid out of reach and the forces that remain (none, or only those
     in other directions) do not say where it is. ``e`` and ``lam`` as for
-    :func:`pushed_out`.
+    :func:`touches_nothing`.
     """
     modes = {b.name: b.solver.modes for b in bodies}
     for name, move in moves.items():

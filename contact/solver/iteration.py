@@ -70,12 +70,14 @@ def solve_frame(
     -------
     FrameResult
         Never raises on non-convergence: ``converged`` is False and ``stop_reason`` says
-        why, with the last state kept.
+        why, with the last state kept. A free body that no contact holds (its loads out
+        of balance where nothing holds it, or touching nothing at the end) is such a
+        result: ``stop_reason`` starts with ``"not held: "`` and ``held`` is False.
 
     Raises
     ------
     ContactError
-        Bad settings, or a free body that nothing holds, or friction with the seed loop.
+        Bad settings, or friction with the seed loop.
     """
     settings = settings or ContactSettings()
     with fem.sparse_threads():  # the cores are PARDISO's: no spinning OpenBLAS workers

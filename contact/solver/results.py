@@ -144,7 +144,8 @@ class FrameResult:
         ``"converged"``, ``"iteration limit"``, ``"cycling"``, ``"bone force limit:
         ..."`` (naming the bone, its force and its limit), ``"penetration left: ..."``
         (naming the node and the pair), ``"not held: ..."`` (a free body slid off its
-        contacts or was pushed out of them: how far and which way), or the seed loop's
+        contacts, touches nothing at the end, or its loads are out of balance where no
+        contact holds it: how far or how hard and which way), or the seed loop's
         ``"diverged"``.
     algorithm : str
         ``"contact-space"`` or ``"seed"``.
@@ -181,8 +182,9 @@ class FrameResult:
     friction : FrictionReport or None
         Coulomb friction's figures, None where every pair is frictionless.
     held : bool or None
-        Whether every free body is held (in balance under its contacts), None where the
-        scene has no free body.
+        Whether every free body is held (in balance under its contacts): False where
+        ``stop_reason`` starts with ``"not held"``; None where the scene has no free
+        body or the frame stopped for another reason.
     anchors : object or None
         Where each closed contact is anchored at the end of the frame, for Coulomb
         friction in the next (:class:`contact.solver.anchors.Anchors`; a stuck contact

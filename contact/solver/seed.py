@@ -14,7 +14,9 @@ between one *Dirichlet* body (the ball) and the others (the hand):
 Step 2 (repel) measures the deformed bodies and takes or releases contacts between
 loops (:class:`contact.solver.contactset.ContactSet`). The loop converges only where the
 ball is the softer side (the others then act as a mould stiffer than it); the default
-algorithm is :mod:`contact.solver.contact_space`.
+algorithm is :mod:`contact.solver.contact_space`. A free ball that its rows do not hold
+against its loads, or that touches nothing at the end, stops the frame as not held
+(:mod:`contact.solver.held`).
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from numpy.typing import NDArray
 import fem
 
 from ..errors import ContactError
+from . import held
 from .delassus import BodyState, ContactSpace
 from .frame import FrameState, limit_reason
 from .results import FrameResult, IterationRecord
@@ -57,8 +60,7 @@ def solve_seed(frame: FrameState, dirichlet: str) -> FrameResult:
     Raises
     ------
     ContactError
-        If ``dirichlet`` is not a body of the frame, a pair does not involve it, or
-        nothing holds it.
+        If ``dirichlet`` is not a body of the frame or a pair does not involve it.
     """
     st = frame.settings
     names = [b.name for b in frame.bodies]
@@ -102,8 +104,12 @@ def solve_seed(frame: FrameState, dirichlet: str) -> FrameResult:
             else:
                 sol = ball.solver.solve(ball.loads, extra=eb, extra_values=-g)
                 lam = sol.extra_reactions
-        except fem.LoadError as exc:
-            raise ContactError(f"nothing holds {ball.name}: {exc}") from None
+        except fem.LoadError:
+            # its loads out of balance where no row holds it: it slides or falls
+            stop = held.unbalanced({ball.name: held.free_load(ball, eb)})
+            if lam.size != len(solved):  # nothing solved yet: report no contact
+                solved, lam = ContactRows(), np.zeros(0)
+            break
         except fem.SolverError as exc:
             # rows from both directions prescribe the ball twice where the surfaces meet
             # node to node: its own compliance on them is singular (the sum of both
@@ -188,6 +194,8 @@ def solve_seed(frame: FrameState, dirichlet: str) -> FrameResult:
             break
         if it > 1 and change <= st.tolerance * size and not added and not pulling.any():
             converged, stop = True, "converged"
+            if out := frame.untouched(rows, e, lam, states):
+                converged, stop = False, out
             break
         rows = grown
     return frame.result(

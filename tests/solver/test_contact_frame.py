@@ -231,12 +231,3 @@ def test_bad_settings_are_named():
         ContactSettings(relaxation_factor=1.5)
     with pytest.raises(ContactError, match="'thumb_distal'"):
         ContactSettings(support_limits={"thumb_distal": -2.0})
-
-
-def test_a_free_ball_that_nothing_holds_is_an_error():
-    ball_mesh = fem.ball_mesh(R, divisions=4, layers=2, center=(0, 0, 2 * R))
-    mat = fem.LinearElastic(1e5, 0.3, density=1000.0)
-    ball = ElasticBody("ball", ball_mesh, mat, loads=fem.gravity_load(ball_mesh, mat))
-    table = Plane([0, 0, 0], [0, 0, 1], name="table")
-    with pytest.raises(ContactError, match="nothing holds ball"):
-        solve_frame([ball], [ContactPair(ball, table)], [table])
