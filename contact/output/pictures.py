@@ -1,10 +1,30 @@
-"""Pictures of a results folder: von Mises stress per frame, the GIF, the convergence plot.
+"""Pictures of a results folder: the grasp, frame by frame, and their GIF.
+
+A frame's picture has a main view of the grasp and, beside it, one view per body
+(:mod:`contact.output.framing`; cameras shared by every frame so that frames compare):
+
+- the bodies opaque, each coloured by its von Mises stress with its own colour map and
+  colour bar in kPa or MPa, over the whole run: from the smallest to the largest value
+  drawn (nodal averages on the surface; from zero where the smallest is near it); where
+  the largest cell-average stress (``max_von_mises`` of ``summary.json``) lies above, the
+  bar says "cell max"; where the surface's 99.9th percentile lies below :data:`_CLIP`
+  of its largest value (one hot spot), the bar stops there, says "clipped" and the
+  maximum, and draws what lies above in :data:`contact.output.drawing.ABOVE`; a body
+  whose stress is round-off (below :data:`_NOISE` times its Young's modulus in every
+  frame) is drawn grey with "no stress" instead of a bar;
+- in the held (smallest) body's view, which shows it alone so that no body hides them
+  (in the main view when the scene has one body),
+  one arrow per finger (region) and per plane touching it (:mod:`contact.output.forces`),
+  its tip where the force acts and its length the region's normal force over the largest
+  grip force of the run times :data:`_ARROW` of the focus box: arrows compare between
+  frames; each labelled with its force (N);
+- the planes as small squares where they touch;
+- the frame, its verdict (green when realistic, red when not) and the grip force per
+  finger written on it, and a frame that did not converge marked "NOT CONVERGED" with its
+  stop reason.
 
 A frame with friction also gets a picture of its stick and slip contacts
-(:mod:`contact.output.status`). The frame pictures are rendered once every frame is known,
-so that all frames share one camera and one colour range: the camera keeps the view
-direction it is given and fits the box around every body of every frame; the colour range
-runs from zero to the largest nodal von Mises stress of any frame. They need off-screen OpenGL
+(:mod:`contact.output.status`) in the main view. The pictures need off-screen OpenGL
 (:func:`contact.rendering.rendering_available`, read at use so that tests can replace it);
 without it, or when VTK fails, they are skipped with a warning rather than failing a run.
 
@@ -13,13 +33,12 @@ Every file is written atomically (:func:`contact.output.staging.write_atomic`).
 
 from __future__ import annotations
 
-import io
 import logging
 import os
 import shutil
 import uuid
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -31,6 +50,9 @@ from fem.pvmesh import to_pyvista
 from fem.stress import nodal_average
 
 from .. import rendering
+from .drawing import Bar, draw_body, draw_planes, draw_pushes, write_verdict
+from .forces import FrameForces
+from .framing import View, body_views, focus_box, grasp_axis, held_view, main_view
 from .staging import write_atomic
 from .status import StatusMarkers, draw_status
 
@@ -38,8 +60,9 @@ if TYPE_CHECKING:
     import pyvista
 
 __all__ = [
+    "BodyPicture",
     "Picture",
-    "convergence_png",
+    "body_picture",
     "deformed_surface",
     "render_pictures",
     "write_gif_atomically",
@@ -47,37 +70,78 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-#: Camera (position relative to the centre in spans, focal point, view up) when none is
-#: given: looking down obliquely from ``(+x, -y, +z)`` with ``z`` up.
-_DEFAULT_VIEW = ((1.0, -1.6, 1.0), (0.0, 0.0, 0.0), (0.0, 0.0, 1.0))
-_CMAP = "viridis"
+#: Colour maps of the bodies, in order: distinct, so that each bar names its body.
+_CMAPS = ("viridis", "plasma", "cividis", "magma")
+#: A body's stress is round-off below this fraction of its Young's modulus.
+_NOISE = 1e-9
+#: Length of the arrow of the largest grip force, as a fraction of the focus box's side.
+_ARROW = 0.45
+#: A bar is clipped at the surface's 99.9th percentile when that is below this fraction
+#: of the surface's largest stress (a hot spot would leave the rest one colour).
+_CLIP = 0.25
 #: Diameter of a stick or slip dot, as a fraction of the picture's smaller side (pixels).
 _DOT = 1.0 / 60.0
 
 
 @dataclass
+class BodyPicture:
+    """A body as a frame's picture draws it.
+
+    Attributes
+    ----------
+    name : str
+    surface : pyvista.PolyData
+        The deformed outer surface, point data ``von_mises`` (Pa, nodal average).
+    top : float
+        The body's largest cell-average von Mises stress in the frame (Pa).
+    noise : float
+        Stress below which the body's stress is round-off (Pa).
+    contact : ndarray (k, 3)
+        Deformed positions of its nodes in contact.
+    points : ndarray (N, 3)
+        All its deformed nodal positions (for the framing).
+    """
+
+    name: str
+    surface: pyvista.PolyData
+    top: float
+    noise: float
+    contact: NDArray[np.float64]
+    points: NDArray[np.float64]
+
+
+@dataclass
 class Picture:
-    """What a frame's pictures need: deformed surfaces with their opacity, planes, contacts.
+    """What a frame's pictures need.
 
     Attributes
     ----------
     index : int
         Frame number (the ``NNNN`` of ``frame_NNNN.png``).
     time : float
-        Frame time, in the title.
-    surfaces : list of (pyvista.PolyData, float)
-        Deformed outer surfaces with point data ``von_mises``, and their opacity.
+        Frame time.
+    bodies : list of BodyPicture
     planes : list of (str, ndarray (3,), ndarray (3,))
         Name, a point and the unit normal of each plane at the frame.
+    forces : FrameForces
+        The pushes of the fingers and planes, the grip force.
+    verdict : dict
+        ``{"realistic": bool, "reason": str}`` of ``summary.json``.
+    converged : bool
+    stop_reason : str
     status : StatusMarkers or None
         The stick and slip contact nodes where the frame has friction (its
-        ``status_NNNN.png``), else None (no status picture).
+        ``status_NNNN.png``), else None.
     """
 
     index: int
     time: float
-    surfaces: list[tuple[pyvista.PolyData, float]]
+    bodies: list[BodyPicture]
     planes: list[tuple[str, NDArray[np.float64], NDArray[np.float64]]]
+    forces: FrameForces
+    verdict: dict = field(default_factory=lambda: {"realistic": True, "reason": ""})
+    converged: bool = True
+    stop_reason: str = "converged"
     status: StatusMarkers | None = None
 
 
@@ -110,12 +174,50 @@ def deformed_surface(
         return grid.extract_surface()
 
 
+def body_picture(
+    name: str,
+    mesh: fem.Mesh,
+    materials: fem.LinearElastic | Mapping[int, fem.LinearElastic],
+    displacement: NDArray[np.float64],
+    von_mises: dict[str, NDArray[np.float64]],
+    fields: Mapping[str, NDArray],
+) -> BodyPicture:
+    """What the pictures need of a body in a frame.
+
+    Parameters
+    ----------
+    name : str
+    mesh : fem.Mesh
+        Its reference configuration.
+    materials : fem.LinearElastic or mapping of int to fem.LinearElastic
+        Its materials (the largest Young's modulus sets the round-off of its stress).
+    displacement : ndarray (N, 3)
+    von_mises : dict of str to ndarray
+        Cell-average von Mises stress per cell type (Pa).
+    fields : mapping of str to ndarray
+        Its contact point data (``normal_force`` marks the contact nodes).
+
+    Returns
+    -------
+    BodyPicture
+    """
+    x = mesh.points + displacement
+    mats = materials.values() if isinstance(materials, Mapping) else [materials]
+    return BodyPicture(
+        name,
+        deformed_surface(mesh, displacement, von_mises),
+        float(max(v.max() for v in von_mises.values())),
+        _NOISE * max(float(m.E) for m in mats),
+        x[np.asarray(fields["normal_force"]) > 0],
+        x,
+    )
+
+
 def render_pictures(
     pictures: Sequence[Picture],
     folder: Path,
     *,
     window_size: tuple[int, int],
-    planes_extent: float | None = None,
     camera: tuple | None = None,
 ) -> str:
     """Render ``folder/frame_NNNN.png`` for every picture (and ``status_NNNN.png``); say how.
@@ -128,12 +230,9 @@ def render_pictures(
         Where the PNG files go (created; removed again when rendering fails).
     window_size : (int, int)
         Picture size in pixels.
-    planes_extent : float, optional
-        Side of the squares drawn for the planes (m); default 1.2 times the largest side
-        of the box around every body of every frame.
     camera : tuple, optional
-        pyvista camera position ``(position, focal point, view up)``; its view direction is
-        kept and the distance fitted.
+        pyvista camera position ``(position, focal point, view up)`` of the main view;
+        its view direction is kept and the distance fitted.
 
     Returns
     -------
@@ -152,7 +251,7 @@ def render_pictures(
         log.warning("pictures skipped: %s", reason)
         return f"skipped: {reason}"
     try:
-        _render_all(pictures, folder, window_size, planes_extent, camera)
+        _render_all(pictures, folder, window_size, camera)
     except OSError:
         raise  # a file that cannot be written: an error of the results folder
     except Exception as exc:  # pictures are not worth failing a run for
@@ -162,108 +261,141 @@ def render_pictures(
     return "written"
 
 
+def _bars(pictures: Sequence[Picture]) -> dict[str, Bar]:
+    """Each body's colour scale over the whole run (see the module docstring)."""
+    names = list(dict.fromkeys(b.name for p in pictures for b in p.bodies))
+    out = {}
+    for k, name in enumerate(names):
+        mine = [b for p in pictures for b in p.bodies if b.name == name]
+        cell = max(b.top for b in mine)
+        noise = max(b.noise for b in mine)
+        values = [np.asarray(b.surface["von_mises"]) for b in mine if b.surface.n_points]
+        drawn = max((float(np.nanmax(v)) for v in values), default=0.0)
+        low = min((float(np.nanmin(v)) for v in values), default=0.0)
+        high = max((float(np.nanpercentile(v, 99.9)) for v in values), default=0.0)
+        clipped = bool(drawn > noise and noise < high < _CLIP * drawn)
+        shown = high if clipped else drawn
+        unit, scale = ("MPa", 1e-6) if shown >= 1e6 else ("kPa", 1e-3)
+        title = f"{name}: von Mises ({unit})"
+        if clipped:
+            title += f", clipped; max {cell * scale:.3g}"
+        elif cell > 1.05 * drawn:
+            title += f"; cell max {cell * scale:.3g}"
+        blank = cell <= noise or not shown > 0
+        bottom = low if 1e-3 * shown < low < shown else 0.0
+        out[name] = Bar(_CMAPS[k % len(_CMAPS)], bottom, shown, scale, title, clipped, blank)
+    return out
+
+
 def _render_all(
     pictures: Sequence[Picture],
     folder: Path,
     window_size: tuple[int, int],
-    planes_extent: float | None,
     camera: tuple | None,
 ) -> None:
     folder.mkdir(exist_ok=True)
-    bounds = np.array([s.bounds for p in pictures for s, _ in p.surfaces if s.n_points]).reshape(
-        -1, 6
-    )
-    lo, hi = bounds[:, 0::2].min(axis=0), bounds[:, 1::2].max(axis=0)
-    center, span = 0.5 * (lo + hi), float((hi - lo).max()) or 1.0
-    extent = planes_extent or 1.2 * span
-    top = max(
-        (float(np.nanmax(s["von_mises"])) for p in pictures for s, _ in p.surfaces),
-        default=0.0,
-    )
-    clim = (0.0, top if top > 0 else 1.0)
-    box = [lo[0], hi[0], lo[1], hi[1], lo[2], hi[2]]
-    if camera is not None:
-        view = [tuple(map(float, v)) for v in camera]
-    else:
-        pos, _, up = _DEFAULT_VIEW
-        view = [tuple(center + np.asarray(pos) * span), tuple(center), up]
-    shot = _Camera(window_size, extent, center, view, box)
+    names = list(dict.fromkeys(b.name for p in pictures for b in p.bodies))
+    per_body = [[b.points for p in pictures for b in p.bodies if b.name == n] for n in names]
+    contacts = [b.contact for p in pictures for b in p.bodies]
+    box = focus_box(per_body, contacts)
+    main = main_view(box, camera, grasp_axis(per_body, box))
+    views = dict(zip(names, body_views(per_body, box), strict=True)) if len(names) > 1 else {}
+    sizes = [float(np.linalg.norm(np.ptp(np.concatenate(p), axis=0))) for p in per_body]
+    held = names[int(np.argmin(sizes))]
+    if views:  # the held body's forces seen side on, as the main view sees them
+        views[held] = held_view(main, per_body[int(np.argmin(sizes))], 0.45)
+    bars = _bars(pictures)
+    grip = max((p.forces.grip for p in pictures), default=0.0)
+    size = float((box[1] - box[0]).max())
+    arrow = _ARROW * size / grip if grip > 0 else 0.0
     dot = _DOT * min(window_size)
     for pic in pictures:
-        image = shot.shoot(pic, f"frame {pic.index}, t = {pic.time:g}", _stress(clim))
+        image = _shoot(window_size, pic, main, views, bars, (held, arrow), size)
         write_atomic(folder / f"frame_{pic.index:04d}.png", rendering.png_bytes(image))
         if pic.status is not None:
-            title = f"frame {pic.index}, t = {pic.time:g}: stick and slip"
-            image = shot.shoot(
-                pic, title, lambda plotter, p: draw_status(plotter, p.surfaces, p.status, dot)
-            )
+            image = _shoot_status(window_size, pic, main, dot)
             write_atomic(folder / f"status_{pic.index:04d}.png", rendering.png_bytes(image))
     log.info("%d pictures rendered", len(pictures))
 
 
-@dataclass(frozen=True)
-class _Camera:
-    """What every picture of a run shares: its size, the plane squares and the camera."""
+def _plotter(window_size: tuple[int, int], n_views: int) -> pyvista.Plotter:
+    import pyvista as pv
 
-    window_size: tuple[int, int]
-    extent: float
-    center: NDArray[np.float64]
-    view: list
-    box: list[float]
-
-    def shoot(
-        self, pic: Picture, title: str, draw: Callable[[pyvista.Plotter, Picture], None]
-    ) -> NDArray[np.uint8]:
-        """Render one picture: ``draw`` adds the bodies, then the planes, title and camera."""
-        import pyvista as pv
-
-        plotter = pv.Plotter(off_screen=True, window_size=list(self.window_size))
-        try:
-            plotter.set_background("white")
-            draw(plotter, pic)
-            for _, point, normal in pic.planes:
-                c = self.center - np.dot(self.center - point, normal) * normal
-                square = pv.Plane(
-                    center=c, direction=normal, i_size=self.extent, j_size=self.extent
-                )
-                plotter.add_mesh(square, color="#8899aa", opacity=0.25, show_edges=False)
-            plotter.add_text(title, font_size=12, color="black")
-            plotter.camera_position = self.view
-            plotter.reset_camera(bounds=self.box)
-            plotter.camera.zoom(1.1)
-            return plotter.screenshot(return_img=True)
-        finally:
-            plotter.close()
+    if n_views < 2:
+        return pv.Plotter(off_screen=True, window_size=list(window_size))
+    return pv.Plotter(
+        off_screen=True,
+        window_size=list(window_size),
+        shape=(n_views, 3),
+        groups=[(np.s_[:], np.s_[:2])],
+        border=True,
+        border_color="#cccccc",
+    )
 
 
-def _stress(clim: tuple[float, float]) -> Callable[[pyvista.Plotter, Picture], None]:
-    """Draws the bodies coloured by von Mises stress, with its colour bar."""
+def _place(plotter: pyvista.Plotter, view: View, zoom: float = 1.0) -> None:
+    plotter.set_background("white")
+    plotter.camera_position = view.camera
+    plotter.reset_camera(bounds=view.box)
+    plotter.camera.zoom(zoom)
 
-    def draw(plotter: pyvista.Plotter, pic: Picture) -> None:
-        for surface, opacity in pic.surfaces:
-            plotter.add_mesh(
-                surface,
-                scalars="von_mises",
-                cmap=_CMAP,
-                clim=clim,
-                opacity=opacity,
-                smooth_shading=True,
-                show_scalar_bar=False,
-            )
-        plotter.add_scalar_bar(
-            "von Mises stress (Pa)",
-            color="black",
-            fmt="%.3g",
-            title_font_size=16,
-            label_font_size=14,
-            vertical=True,
-            position_x=0.86,
-            position_y=0.08,
-            height=0.76,
-            width=0.06,
+
+def _shoot(
+    window_size: tuple[int, int],
+    pic: Picture,
+    main: View,
+    views: dict[str, View],
+    bars: dict[str, Bar],
+    arrows: tuple[str, float],
+    size: float,
+) -> NDArray[np.uint8]:
+    """Render a frame's picture: the main view and one view per body.
+
+    The force arrows go where no body hides them: into the view of the held (smallest)
+    body, drawn alone, or into the main view when there is no other body.
+    """
+    held, arrow = arrows
+    plotter = _plotter(window_size, len(views))
+    try:
+        plotter.subplot(0, 0)
+        for k, body in enumerate(pic.bodies):
+            draw_body(plotter, body, bars[body.name], bar_at=k)
+        if not views:
+            draw_pushes(plotter, pic.forces, arrow)
+        draw_planes(plotter, pic, size)
+        wide = window_size[0] * (2 / 3 if views else 1)
+        write_verdict(plotter, pic, (int(wide), window_size[1]))
+        _place(plotter, main, 1.1)
+        for row, body in enumerate(b for b in pic.bodies if b.name in views):
+            plotter.subplot(row, 2)
+            draw_body(plotter, body, bars[body.name], bar_at=None)
+            if body.name == held:
+                draw_pushes(plotter, pic.forces, arrow)
+                title = f"{body.name} alone: the forces on it"
+            else:
+                title = f"{body.name}, seen from the {held}"
+            plotter.add_text(title, font_size=9, color="black")
+            _place(plotter, views[body.name], 1.2 if body.name == held else 1.0)
+        return plotter.screenshot(return_img=True)
+    finally:
+        plotter.close()
+
+
+def _shoot_status(
+    window_size: tuple[int, int], pic: Picture, main: View, dot: float
+) -> NDArray[np.uint8]:
+    """Render a frame's stick and slip picture in the main view."""
+    assert pic.status is not None
+    plotter = _plotter(window_size, 1)
+    try:
+        draw_status(plotter, [(b.surface, 1.0) for b in pic.bodies], pic.status, dot)
+        plotter.add_text(
+            f"frame {pic.index}, t = {pic.time:g} s: stick and slip", font_size=12, color="black"
         )
-
-    return draw
+        _place(plotter, main, 1.15)
+        return plotter.screenshot(return_img=True)
+    finally:
+        plotter.close()
 
 
 def write_gif_atomically(pngs: Sequence[Path], path: Path, fps: float) -> None:
@@ -284,55 +416,3 @@ def write_gif_atomically(pngs: Sequence[Path], path: Path, fps: float) -> None:
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
-
-
-def convergence_png(curves: Sequence[tuple[float, Sequence[float]]]) -> bytes:
-    """The convergence plot: largest change against iteration, one line per frame.
-
-    Parameters
-    ----------
-    curves : sequence of (float, sequence of float)
-        Frame time and the largest change of a nodal displacement at each iteration (m).
-        More than ten frames are coloured by time with a colour bar, fewer get a legend.
-
-    Returns
-    -------
-    bytes
-        The PNG.
-    """
-    from matplotlib import colormaps
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.cm import ScalarMappable
-    from matplotlib.colors import Normalize
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(7.0, 4.5), dpi=100)
-    FigureCanvasAgg(fig)
-    ax = fig.add_subplot()
-    drawn = [(t, h) for t, h in curves if h]
-    many = len(drawn) > 10
-    times = [t for t, _ in drawn]
-    norm = Normalize(min(times, default=0.0), max(times, default=1.0) or 1.0)
-    cmap = colormaps["viridis"]
-    for k, (t, h) in enumerate(drawn):
-        y = np.asarray(h)
-        y = np.where(y > 0, y, np.nan)  # a log scale cannot show a zero change
-        it = np.arange(1, len(y) + 1)
-        color = cmap(norm(t)) if many else f"C{k % 10}"
-        ax.plot(it, y, "o-", ms=3, lw=1.2, color=color, label=f"t = {t:g}")
-    ax.set_yscale("log")
-    ax.set_xlabel("iteration")
-    ax.set_ylabel("largest change of a nodal displacement (m)")
-    ax.set_title("Contact iteration: convergence per frame")
-    ax.grid(True, which="both", alpha=0.3)
-    if not drawn:
-        ax.text(0.5, 0.5, "no iterations", ha="center", va="center", transform=ax.transAxes)
-    elif many:
-        fig.colorbar(ScalarMappable(norm, cmap), ax=ax, label="frame time")
-    else:
-        ax.legend(fontsize=8)
-    ax.xaxis.get_major_locator().set_params(integer=True)
-    fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png")
-    return buf.getvalue()

@@ -3,7 +3,11 @@
 A frame's record (:func:`frame_entry`) holds its time, verdict, forces (contact, obstacle,
 bone), contacts per pair, whether its free bodies are held, its Coulomb friction figures
 (:func:`friction_entry`), largest von Mises stress per body, the iteration history, its
-files and its timings. Everything but the ``"timings"`` keys (seconds) and the versions is
+files and its timings. The grasp's own figures are computed here and passed in as the
+record's extra items by the caller, which knows the bodies: the grip force
+(:func:`grip_force`), the forces, contact area and peak pressure per hand part
+(:func:`part_forces`) and the largest strain per body (:func:`max_strain`, against
+:data:`SMALL_STRAIN`). Everything but the ``"timings"`` keys (seconds) and the versions is
 a function of the input, so that two runs of one scene give equal summaries.
 """
 
@@ -18,11 +22,28 @@ from importlib import metadata
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
+
+import fem
 
 from ..solver.results import FrameResult, FrictionReport
 
-__all__ = ["frame_entry", "friction_entry", "jsonable", "summary_text", "verdict", "versions"]
+__all__ = [
+    "SMALL_STRAIN",
+    "frame_entry",
+    "friction_entry",
+    "grip_force",
+    "jsonable",
+    "max_strain",
+    "part_forces",
+    "summary_text",
+    "verdict",
+    "versions",
+]
+
+#: The largest principal strain that small-strain linear elasticity describes well: beyond
+#: it the model's forces and stresses are an extrapolation, and the run warns.
+SMALL_STRAIN = 0.10
 
 #: Distributions whose versions :func:`versions` reports (key -> distribution name).
 _DISTRIBUTIONS = {
@@ -63,6 +84,108 @@ def verdict(result: FrameResult) -> dict[str, Any]:
     if not result.converged:
         return {"realistic": False, "reason": f"not converged: {result.stop_reason}"}
     return {"realistic": True, "reason": "converged; every bone under its limit"}
+
+
+def grip_force(result: FrameResult, hand: str | None) -> float:
+    """The total grip force: the sum of the normal contact forces on the ball (N).
+
+    Parameters
+    ----------
+    result : FrameResult
+    hand : str or None
+        The hand's body name: the contacts of the pairs it is in count. None (no hand):
+        the contacts against the planes count.
+
+    Returns
+    -------
+    float
+        The sum of the magnitudes of those contacts' normal forces (>= 0); for a ball
+        squeezed between two plates, twice the squeeze.
+    """
+    c = result.contacts
+    if not c or not len(c.get("pair", ())):
+        return 0.0
+    pair = np.asarray(c["pair"]).astype(str)
+    slave, _, master = np.char.partition(pair, "/").T
+    if hand is not None:
+        mine = (slave == hand) | (master == hand)
+    else:
+        mine = np.isin(master, list(result.obstacle_forces))
+    return float(np.abs(np.asarray(c["force"], dtype=np.float64)[mine]).sum())
+
+
+def part_forces(
+    fields: Mapping[str, ArrayLike] | None,
+    parts: NDArray[np.int64],
+    names: Sequence[str],
+    areas: ArrayLike,
+) -> dict[str, dict[str, float]]:
+    """Normal and tangential totals, contact area and peak pressure per hand part.
+
+    Parameters
+    ----------
+    fields : mapping or None
+        The hand's nodal contact fields (:attr:`FrameResult.contact_fields`):
+        ``normal_force`` ``(N,)`` and ``tangential_force`` ``(N, 3)``; None: no contact.
+    parts : ndarray of int, shape (N,)
+        The part of every node (:func:`contact.hand.fingers.node_parts`).
+    names : sequence of str
+        Part names by id (palm, thumb, index, middle, ring, little).
+    areas : array_like, shape (N,)
+        Tributary boundary area of every node (m^2).
+
+    Returns
+    -------
+    dict of str to dict of str to float
+        Part name -> ``normal`` (sum of the nodal normal force magnitudes, N),
+        ``tangential`` (sum of the nodal tangential force magnitudes, N),
+        ``contact_area`` (sum of the tributary areas of the nodes with a normal force,
+        m^2) and ``peak_pressure`` (largest nodal normal force over tributary area, Pa).
+    """
+    n = len(parts)
+    a = np.asarray(areas, dtype=np.float64)
+    fn = np.zeros(n)
+    ft = np.zeros(n)
+    if fields is not None:
+        fn = np.asarray(fields["normal_force"], dtype=np.float64)
+        ft = np.linalg.norm(np.asarray(fields["tangential_force"], dtype=np.float64), axis=1)
+    touch = (fn > 0.0) & (a > 0.0)
+    pressure = np.zeros(n)
+    pressure[touch] = fn[touch] / a[touch]
+    out = {}
+    for i, name in enumerate(names):
+        own = parts == i
+        out[str(name)] = {
+            "normal": float(fn[own].sum()),
+            "tangential": float(ft[own].sum()),
+            "contact_area": float(a[own & touch].sum()),
+            "peak_pressure": float(pressure[own].max(initial=0.0)),
+        }
+    return out
+
+
+def max_strain(
+    mesh: fem.Mesh, u: ArrayLike, *, bbar: bool = True, nodal_pressure: bool = False
+) -> float:
+    """The largest principal strain of a body, in magnitude, at any Gauss point.
+
+    Parameters
+    ----------
+    mesh : fem.Mesh
+        The body's configuration the displacement starts from.
+    u : array_like, shape (N, 3) or (3N,)
+        Its displacement (m).
+    bbar, nodal_pressure : bool
+        As its stiffness was assembled (:func:`fem.gauss_strain`).
+
+    Returns
+    -------
+    float
+        ``max |eig(eps)|`` of the small strain tensor (dimensionless; 0.1 is 10 %).
+    """
+    eps = fem.gauss_strain(mesh, np.ravel(u), bbar=bbar, nodal_pressure=nodal_pressure)
+    peaks = [np.abs(np.linalg.eigvalsh(e.reshape(-1, 3, 3))).max(initial=0.0) for e in eps.values()]
+    return float(max(peaks, default=0.0))
 
 
 def versions() -> dict[str, str]:

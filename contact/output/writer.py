@@ -6,26 +6,36 @@
 Layout of a results folder::
 
     summary.json               per frame: time, verdict, forces, history, timings; the scene
-    <body>_<index:04d>.vtu     reference configuration of the frame, with the arrays below
+    <body>_<index:04d>.vtu     the body in the frame, with the arrays below
     <body>.pvd                 ParaView series of a body (timestep = frame time)
-    frames/frame_<index:04d>.png   von Mises stress on the deformed bodies
+    frames/frame_<index:04d>.png   the grasp: stress, finger forces, verdict
     frames/status_<index:04d>.png  stick and slip contacts (frames with friction)
     grasp.gif                  the frames as an animation
+    forces.png                 force per finger and per bone against time
     convergence.png            largest change against iteration, one line per frame
 
-VTU arrays: point data ``displacement`` and ``contact_force`` ``(N, 3)``, and the contact
-fields ``normal_force``, ``tangential_force``, ``contact_status`` and ``cone_use``
+**One configuration.** Every body's points are its reference placement of the frame,
+before contact: the hand posed by the frame's joint angles, the ball at its scene position
+(moved by ``[ball.follow]``). The bodies line up as posed (a finger pressed into the ball
+overlaps it by the press depth); ``points + displacement`` is every body's deformed
+configuration (ParaView's *Warp By Vector* on ``displacement``, scale 1).
+
+VTU arrays (units in the field data, :mod:`contact.output.vtufields`): point data
+``displacement`` (m) and ``contact_force`` ``(N, 3)`` (N), and the contact fields
+``normal_force``, ``tangential_force``, ``contact_status`` and ``cone_use``
 (:mod:`contact.output.status`, zeros where a body has no contact); cell data
-``von_mises`` (cell-average stress, Pa), ``stress`` ``(M, 6)`` in the component order
+``von_mises`` (cell-average stress, Pa), ``stress`` ``(M, 6)`` (Pa) in the component order
 :data:`STRESS_COMPONENTS` (``xx yy zz xy yz xz``, the order ParaView names the components
-of a symmetric tensor) and ``region``. The points are the body's reference configuration
-of the frame (posed hand, placed ball): ParaView's *Warp By Vector* with ``displacement``
-shows the deformed bodies.
+of a symmetric tensor), ``region`` and, for a body given its cells' bones, ``bone``. Field
+data: ``time (s)``, the units, ``region <name>`` (the region id of each named region),
+``bone <name>`` (the bone id of each bone) and ``bone_force <name> (N)``: the force the
+bone (support) exerts on the body, as in ``summary.json``.
 
 The frame records and ``summary.json`` come from :mod:`contact.output.summary`; the
-pictures, GIF and convergence plot from :mod:`contact.output.pictures`, rendered in
+pictures and GIF from :mod:`contact.output.pictures`, rendered in
 :meth:`ResultsWriter.finish` once every frame is known (without off-screen OpenGL they are
-skipped with a warning and ``summary.json`` says ``"pictures": "skipped: <reason>"``).
+skipped with a warning and ``summary.json`` says ``"pictures": "skipped: <reason>"``);
+the plots from :mod:`contact.output.plots`.
 """
 
 from __future__ import annotations
@@ -46,30 +56,28 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 import fem
-from fem.stress import cell_stress, von_mises
 
 from ..errors import OutputError
 from ..solver.results import FrameResult
+from .forces import FrameForces, frame_forces
 from .pictures import (
     Picture,
-    convergence_png,
-    deformed_surface,
+    body_picture,
     render_pictures,
     write_gif_atomically,
 )
+from .plots import convergence_png, forces_png
 from .staging import check_target, make_staging, swap_into_place, write_atomic
 from .status import contact_point_data, status_markers
 from .summary import frame_entry, summary_text
 from .summary import versions as _versions  # finish() has a parameter of this name
+from .vtufields import STRESS_COMPONENTS, write_body_vtu
 
 __all__ = ["STRESS_COMPONENTS", "BodyFrame", "ResultsWriter"]
 
+
 log = logging.getLogger(__name__)
 
-#: Order of the six components of the ``stress`` cell array (ParaView's for 6-component
-#: symmetric tensors).
-STRESS_COMPONENTS = ("xx", "yy", "zz", "xy", "yz", "xz")
-_VOIGT = (np.array([0, 1, 2, 0, 1, 0]), np.array([0, 1, 2, 1, 2, 2]))
 #: A body name that can name a file.
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.+-]*$")
 
@@ -86,12 +94,22 @@ class BodyFrame:
     materials : fem.LinearElastic or mapping of int to fem.LinearElastic
         Its material, or one per region (for the stress).
     opacity : float
-        Opacity of the body in the pictures (1 opaque; e.g. 0.5 for a hand around a ball).
+        Not used: the pictures draw every body opaque, so that the skin's stress can be
+        read (kept so that existing callers run).
     bbar : bool
         Its bricks and wedges with their mean dilatation, as its stiffness was assembled
         (:class:`contact.solver.body.ElasticBody`): the stress follows the same strain.
     nodal_pressure : bool
         Its tetrahedra with averaged nodal pressures, likewise.
+    region_names : sequence of str
+        Name of each region id (the hand: palm, thumb, index, middle, ring, little): the
+        VTU's field data, and the contact forces summed per region in the pictures and
+        ``forces.png``. Empty: regions unnamed, no forces per region.
+    cell_bone : ndarray of int, optional
+        The bone of each cell, in the mesh's cell order (``-1`` none): the VTU's cell data
+        ``bone``.
+    bone_names : sequence of str
+        Name of each bone id of ``cell_bone``.
     """
 
     mesh: fem.Mesh
@@ -99,6 +117,9 @@ class BodyFrame:
     opacity: float = 1.0
     bbar: bool = True
     nodal_pressure: bool = False
+    region_names: Sequence[str] = ()
+    cell_bone: NDArray[np.int64] | None = None
+    bone_names: Sequence[str] = ()
 
 
 @dataclass
@@ -110,6 +131,7 @@ class _Frame:
     entry: dict[str, Any]
     vtu: dict[str, str]
     history: list[float]
+    forces: FrameForces
 
 
 class ResultsWriter:
@@ -129,12 +151,13 @@ class ResultsWriter:
     window_size : (int, int)
         Picture size in pixels.
     planes_extent : float, optional
-        Side of the squares drawn for the planes (m); default 1.2 times the largest
-        side of the box around every body of every frame.
+        Not used: each plane is drawn as a small square where it touches a body (kept so
+        that existing callers run).
     camera : tuple, optional
-        pyvista camera position ``(position, focal point, view up)``: its view direction
-        is kept and the distance fitted to every body of every frame. Default: looking
-        down obliquely from ``(+x, -y, +z)`` with ``z`` up.
+        pyvista camera position ``(position, focal point, view up)`` of the pictures' main
+        view: its view direction is kept and the distance fitted to the grasp
+        (:mod:`contact.output.framing`). Default: looking down obliquely from
+        ``(+x, -y, +z)`` with ``z`` up.
     fps : float
         GIF frame rate.
 
@@ -272,46 +295,40 @@ class ResultsWriter:
             name: contact_point_data(result.contact_fields.get(name), body.mesh.n_points, name)
             for name, body in bodies.items()
         }
+        deformed = {n: b.mesh.points + result.displacement[n] for n, b in bodies.items()}
         vtu: dict[str, str] = {}
         max_vm: dict[str, float] = {}
-        surfaces = []
+        drawn = []
         for name, body in bodies.items():
+            vtu[name] = f"{name}_{index:04d}.vtu"
             u = np.asarray(result.displacement[name], dtype=np.float64)
             f = result.contact_force.get(name)
-            f = np.zeros_like(u) if f is None else np.asarray(f, dtype=np.float64)
-            sigma = cell_stress(
-                body.mesh,
-                body.materials,
-                u.ravel(),
-                bbar=body.bbar,
-                nodal_pressure=body.nodal_pressure,
-            )
-            vm = {k: von_mises(s) for k, s in sigma.items()}
-            six = {k: s[:, _VOIGT[0], _VOIGT[1]] for k, s in sigma.items()}
-            max_vm[name] = float(max(v.max() for v in vm.values()))
-            fname = f"{name}_{index:04d}.vtu"
             try:
-                fem.write_mesh(
-                    self.staging / fname,
+                vm = write_body_vtu(
+                    self.staging / vtu[name],
                     body.mesh,
-                    point_data={"displacement": u, "contact_force": f, **fields[name]},
-                    cell_data={"von_mises": vm, "stress": six},
+                    body.materials,
+                    u,
+                    np.zeros_like(u) if f is None else f,
+                    fields[name],
+                    time=time,
+                    bbar=body.bbar,
+                    nodal_pressure=body.nodal_pressure,
+                    support=result.support_forces.get(name, {}),
+                    region_names=body.region_names,
+                    cell_bone=body.cell_bone,
+                    bone_names=body.bone_names,
                 )
             except fem.MeshError as exc:
                 raise OutputError(
                     f"cannot write the results folder {self.directory}: {exc}"
                 ) from None
-            vtu[name] = fname
+            max_vm[name] = float(max(v.max() for v in vm.values()))
             if self.pictures:
-                surfaces.append((deformed_surface(body.mesh, u, vm), float(body.opacity)))
+                drawn.append(body_picture(name, body.mesh, body.materials, u, vm, fields[name]))
         status = None
         if self.pictures and result.friction is not None:
-            status = status_markers(
-                {n: b.mesh.points + result.displacement[n] for n, b in bodies.items()},
-                {n: fields[n]["contact_status"] for n in bodies},
-            )
-        if self.pictures:
-            self._pictures.append(Picture(index, time, surfaces, plane_list, status))
+            status = status_markers(deformed, {n: fields[n]["contact_status"] for n in bodies})
         entry = frame_entry(
             index,
             time,
@@ -322,9 +339,28 @@ class ResultsWriter:
             status_picture=f"frames/status_{index:04d}.png" if status is not None else None,
             extra=extra,
         )
+        named = {n: (b.mesh, tuple(b.region_names)) for n, b in bodies.items() if b.region_names}
+        span = float(np.ptp(np.concatenate(list(deformed.values())), axis=0).max())
+        grip = entry.get("grip_force")
+        grip = float(grip) if isinstance(grip, (int, float)) else None
+        forces = frame_forces(time, result, deformed, named, plane_list, span, grip)
+        if self.pictures:
+            self._pictures.append(
+                Picture(
+                    index,
+                    time,
+                    drawn,
+                    plane_list,
+                    forces,
+                    verdict=dict(entry["verdict"]),
+                    converged=bool(result.converged),
+                    stop_reason=str(result.stop_reason),
+                    status=status,
+                )
+            )
         entry["timings"]["write"] = _clock() - t0
         history = [float(r.max_change) for r in result.history]
-        self._frames.append(_Frame(index, time, entry, vtu, history))
+        self._frames.append(_Frame(index, time, entry, vtu, history, forces))
         log.info("frame %d (t = %g): %s written", index, time, ", ".join(vtu.values()))
         return entry
 
@@ -361,6 +397,8 @@ class ResultsWriter:
             curves = [(f.time, f.history) for f in frames]
             write_atomic(self.staging / "convergence.png", convergence_png(curves))
             files["convergence"] = "convergence.png"
+            write_atomic(self.staging / "forces.png", forces_png([f.forces for f in frames]))
+            files["forces"] = "forces.png"
             t1 = _clock()
             pictures = "off"
             if self.pictures:
@@ -368,7 +406,6 @@ class ResultsWriter:
                     self._pictures,
                     self.staging / "frames",
                     window_size=self.window_size,
-                    planes_extent=self.planes_extent,
                     camera=self.camera,
                 )
             if pictures == "written" and self.gif and self._pictures:

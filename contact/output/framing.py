@@ -1,0 +1,238 @@
+"""Where the pictures look: the grasp's box, the main view and one view per body.
+
+Every frame of a run is drawn with the same cameras, so that frames compare:
+
+- the *focus box* holds the smallest body (the ball) in every frame and every contact node
+  of every body in every frame (the hand's contact zone), padded by :data:`_PAD`; the
+  main view fits this box, so that planes and the far parts of the hand do not decide
+  the framing. It keeps a given camera's view direction; by default it looks across the
+  *grasp axis* (from the smallest body to the other bodies' parts in the box: from the
+  ball to the palm), from the side of :data:`DEFAULT_VIEW` and a little from the ball's
+  side (:data:`_TILT`), so that the ball, the hand around it and the gap between them
+  show; looking down :data:`DEFAULT_VIEW` would show the back of the hand over the ball;
+- each body's own view looks at the body's part inside the focus box from the side of the
+  other bodies (from the ball onto the hand's palmar skin), where its contacts and their
+  stress are; the held body's (the ball's) view, which carries the force arrows, looks
+  from the main view's direction, so that the arrows are seen side on
+  (:func:`held_view`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = [
+    "DEFAULT_VIEW",
+    "View",
+    "body_views",
+    "focus_box",
+    "grasp_axis",
+    "held_view",
+    "main_view",
+]
+
+#: Main camera when none is given: the direction from the focus to the eye, and view up:
+#: obliquely from ``(+x, -y, +z)`` with ``z`` up.
+DEFAULT_VIEW = ((1.0, -1.6, 1.0), (0.0, 0.0, 1.0))
+#: Padding of the focus box, as a fraction of its largest side on each side.
+_PAD = 0.12
+#: How far the default main view turns from across the grasp axis toward the ball's side
+#: (the tangent of the angle).
+_TILT = 0.35
+
+
+@dataclass(frozen=True)
+class View:
+    """A camera: eye position, focal point, view up, and the box it must show.
+
+    Attributes
+    ----------
+    position, focus, up : tuple of float
+    box : list of float
+        ``[xmin, xmax, ymin, ymax, zmin, zmax]`` fitted by the camera.
+    """
+
+    position: tuple[float, float, float]
+    focus: tuple[float, float, float]
+    up: tuple[float, float, float]
+    box: list[float]
+
+    @property
+    def camera(self) -> list[tuple[float, float, float]]:
+        """Pyvista's camera position ``[position, focal point, view up]``."""
+        return [self.position, self.focus, self.up]
+
+
+def _box(points: NDArray[np.float64]) -> NDArray[np.float64]:
+    return np.array([points.min(axis=0), points.max(axis=0)])
+
+
+def focus_box(
+    bodies: Sequence[Sequence[NDArray[np.float64]]],
+    contacts: Sequence[NDArray[np.float64]],
+) -> NDArray[np.float64]:
+    """The box around the smallest body and every contact node, padded.
+
+    Parameters
+    ----------
+    bodies : sequence of sequence of ndarray (N, 3)
+        Per body, its deformed points in every frame.
+    contacts : sequence of ndarray (k, 3)
+        Contact nodes (deformed) of every body and frame.
+
+    Returns
+    -------
+    ndarray (2, 3)
+        Lower and upper corner.
+    """
+    boxes = [_box(np.concatenate(frames)) for frames in bodies if len(frames)]
+    small = min(boxes, key=lambda b: float(np.linalg.norm(b[1] - b[0])))
+    pts = [small, *(c for c in contacts if len(c))]
+    lo = np.min([p.min(axis=0) for p in pts], axis=0)
+    hi = np.max([p.max(axis=0) for p in pts], axis=0)
+    pad = _PAD * float((hi - lo).max())
+    return np.array([lo - pad, hi + pad])
+
+
+def _flat(box: NDArray[np.float64]) -> list[float]:
+    return [float(v) for v in box.T.ravel()]
+
+
+def _up(direction: NDArray[np.float64]) -> tuple[float, float, float]:
+    """``z`` up unless looking along ``z``, then ``y``."""
+    z = np.array([0.0, 0.0, 1.0])
+    return (0.0, 1.0, 0.0) if abs(float(direction @ z)) > 0.95 else (0.0, 0.0, 1.0)
+
+
+def main_view(
+    box: NDArray[np.float64],
+    camera: tuple | None = None,
+    axis: NDArray[np.float64] | None = None,
+) -> View:
+    """The main view of the focus box, fitted to it.
+
+    Parameters
+    ----------
+    box : ndarray (2, 3)
+        The focus box.
+    camera : tuple, optional
+        pyvista camera position ``(position, focal point, view up)``: its direction kept.
+    axis : ndarray (3,), optional
+        The grasp axis (:func:`grasp_axis`): without a camera, the view looks across it.
+
+    Returns
+    -------
+    View
+    """
+    centre = box.mean(axis=0)
+    span = float((box[1] - box[0]).max()) or 1.0
+    if camera is not None:
+        pos, foc, up = (np.asarray(v, dtype=np.float64) for v in camera)
+        d = pos - foc
+    else:
+        d, up = (np.asarray(v, dtype=np.float64) for v in DEFAULT_VIEW)
+        d = d / np.linalg.norm(d)
+        if axis is not None:
+            across = d - (d @ axis) * axis
+            if np.linalg.norm(across) < 0.1:  # looking along the axis: turn to x
+                across = np.array([1.0, 0.0, 0.0]) - axis[0] * axis
+            d = across / np.linalg.norm(across) - _TILT * axis
+            up = np.asarray(_up(d / np.linalg.norm(d)))
+    d = d / (np.linalg.norm(d) or 1.0)
+    return View(tuple(centre + 3 * span * d), tuple(centre), tuple(map(float, up)), _flat(box))
+
+
+def grasp_axis(
+    bodies: Sequence[Sequence[NDArray[np.float64]]], box: NDArray[np.float64]
+) -> NDArray[np.float64] | None:
+    """Unit vector from the smallest body's centre to the other bodies' parts in the box.
+
+    Parameters
+    ----------
+    bodies : sequence of sequence of ndarray (N, 3)
+        Per body, its deformed points in every frame.
+    box : ndarray (2, 3)
+        The focus box.
+
+    Returns
+    -------
+    ndarray (3,) or None
+        None with a single body, or when no other body reaches into the box.
+    """
+    if len(bodies) < 2:
+        return None
+    pts = [np.concatenate(frames) for frames in bodies]
+    sizes = [float(np.linalg.norm(np.ptp(p, axis=0))) for p in pts]
+    k = int(np.argmin(sizes))
+    others = [p[np.all((p >= box[0]) & (p <= box[1]), axis=1)] for j, p in enumerate(pts) if j != k]
+    others = [o for o in others if len(o)]
+    if not others:
+        return None
+    d = np.concatenate(others).mean(axis=0) - pts[k].mean(axis=0)
+    n = float(np.linalg.norm(d))
+    return d / n if n > 0 else None
+
+
+def body_views(
+    bodies: Sequence[Sequence[NDArray[np.float64]]], box: NDArray[np.float64]
+) -> list[View]:
+    """Each body's view: its part in the focus box, seen from the other bodies' side.
+
+    Parameters
+    ----------
+    bodies : sequence of sequence of ndarray (N, 3)
+        Per body, its deformed points in every frame.
+    box : ndarray (2, 3)
+        The focus box.
+
+    Returns
+    -------
+    list of View
+        One per body; a body with no point in the box is seen whole, a body alone from
+        the default direction.
+    """
+    parts, centres = [], []
+    for frames in bodies:
+        pts = np.concatenate(frames)
+        inside = np.all((pts >= box[0]) & (pts <= box[1]), axis=1)
+        part = pts[inside] if inside.any() else pts
+        parts.append(part)
+        centres.append(part.mean(axis=0))
+    views = []
+    for k, part in enumerate(parts):
+        others = [c for j, c in enumerate(centres) if j != k]
+        d = np.mean(others, axis=0) - centres[k] if others else np.asarray(DEFAULT_VIEW[0])
+        n = float(np.linalg.norm(d))
+        d = d / n if n > 0 else np.asarray(DEFAULT_VIEW[0]) / np.linalg.norm(DEFAULT_VIEW[0])
+        b = _box(part)
+        span = float((b[1] - b[0]).max()) or 1.0
+        c = b.mean(axis=0)
+        views.append(View(tuple(c + 3 * span * d), tuple(c), _up(d), _flat(b)))
+    return views
+
+
+def held_view(main: View, frames: Sequence[NDArray[np.float64]], reach: float) -> View:
+    """The held body alone, from the main view's direction, with room for the arrows.
+
+    Parameters
+    ----------
+    main : View
+        The main view.
+    frames : sequence of ndarray (N, 3)
+        The body's deformed points in every frame.
+    reach : float
+        The longest arrow, as a fraction of the body's size: the box is padded by it.
+
+    Returns
+    -------
+    View
+    """
+    b = _box(np.concatenate(frames))
+    c = b.mean(axis=0)
+    pad = reach * float((b[1] - b[0]).max())
+    d = np.asarray(main.position) - np.asarray(main.focus)
+    return View(tuple(c + d), tuple(c), main.up, _flat(np.array([b[0] - pad, b[1] + pad])))
