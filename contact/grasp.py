@@ -3,14 +3,22 @@
 It reads the scene, solves its frames (:class:`contact.run.GraspRun`: pose the hand, place
 the ball, resolve the contact) and writes the results folder
 (:class:`contact.output.ResultsWriter`), with a progress bar on a terminal and warnings as
-one log line each. Exit status: 0 when every frame converged with every bone under its
-limit, 1 when a frame did not converge or a bone passed its limit (everything is still
-written), 2 for bad input (one line on stderr naming the file, key or element; nothing
-written).
+one log line each. On stdout it reports one line a frame and a closing line
+(:mod:`contact.report`; ``--quiet`` silences them). Exit status: 0 when every frame
+converged with every bone under its limit, 1 when a frame did not converge or a bone
+passed its limit (everything is still written), 2 for bad input (one line on stderr naming
+the file, key or element; nothing written).
+
+Each frame's record gets the grasp's figures (:mod:`contact.output.summary`): the grip
+force, the forces, contact area and peak pressure per hand part, and the largest strain
+per body, with a warning past :data:`contact.output.summary.SMALL_STRAIN`.
 
 With friction every frame depends on the frames before it (where each contact stuck), so
 ``--frames`` replays the history: every frame from the first up to the last one asked for
 is solved, in time order, and only those asked for are written.
+
+``--pose-only`` poses the hand and places the ball without solving
+(:mod:`contact.poseonly`).
 """
 
 from __future__ import annotations
@@ -18,6 +26,7 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
+import time
 import warnings
 from collections.abc import Sequence
 from pathlib import Path
@@ -26,10 +35,14 @@ from typing import TextIO
 import fem
 
 from .errors import ContactError
-from .output import BodyFrame, ResultsWriter, versions
+from .hand.fingers import node_parts
+from .output import BodyFrame, ResultsWriter, summary, versions
+from .poseonly import pose_only
+from .report import frame_line, summary_line
 from .run import GraspRun
 from .scene.read import load_scene
-from .solver.results import IterationRecord
+from .solver.body import ElasticBody
+from .solver.results import FrameResult, IterationRecord
 
 __all__ = ["GraspRun", "main", "run"]
 
@@ -67,7 +80,7 @@ def run(
     pictures : bool, optional
         Render pictures; default the scene's ``output.pictures``.
     quiet : bool
-        No progress bar and no closing line.
+        No progress bar and no report on stdout.
 
     Returns
     -------
@@ -107,10 +120,19 @@ def run(
         solved = list(range(chosen[-1] + 1)) if chosen else []
     bar = _progress(len(solved), quiet)
     status = 0
+    entries = []
     try:
         run_ = GraspRun(scene)
+        hand_labels: dict = {}
+        if run_.hand is not None:  # the hand's cells named by part and bone in the results
+            hand_labels = {
+                "region_names": run_.hand.part_names,
+                "cell_bone": run_.hand.cell_bone,
+                "bone_names": run_.hand.skeleton.bone_names,
+            }
         for i in solved:
             t = times[i]
+            t0 = time.perf_counter()
             bar.set_description(f"t = {t:g}")
 
             def tell(rec: IterationRecord) -> None:
@@ -123,14 +145,13 @@ def run(
                 log.info("t = %g: replayed for the friction history (not written)", t)
                 bar.update(1)
                 continue
-            # the hand drawn half transparent, so that the ball's stress shows through
             bodies = {
                 b.name: BodyFrame(
                     b.mesh,
                     b.materials,
-                    opacity=0.5 if b.name == "hand" else 1.0,
                     bbar=b.bbar,
                     nodal_pressure=b.nodal_pressure,
+                    **(hand_labels if b.name == "hand" else {}),
                 )
                 for b in frame_bodies
             }
@@ -140,11 +161,14 @@ def run(
                 result,
                 bodies,
                 planes=[(p.name, p.point + p.motion, p.normal) for p in planes],
-                extra=extra,
+                extra={**extra, **_figures(run_, result, frame_bodies, t)},
             )
+            entries.append(entry)
             if not entry["verdict"]["realistic"]:
                 status = 1
             log.info("t = %g: %s", t, entry["verdict"]["reason"])
+            if not quiet:
+                bar.write(frame_line(entry, time.perf_counter() - t0), file=sys.stdout)
             bar.update(1)
         writer.finish(scene.echo(), versions=versions())
     except (ContactError, ValueError, fem.FemError) as exc:
@@ -158,8 +182,40 @@ def run(
         raise
     bar.close()
     if not quiet:
-        print(f"results in {directory}", file=sys.stderr)
+        print(summary_line(entries, directory), flush=True)
     return status
+
+
+def _figures(run: GraspRun, result: FrameResult, bodies: Sequence[ElasticBody], t: float) -> dict:
+    """The grasp's figures of a frame: grip force, per hand part, largest strain per body."""
+    hand = next((b for b in bodies if b.name == "hand"), None)
+    out: dict = {"grip_force": summary.grip_force(result, None if hand is None else "hand")}
+    out["fingers"] = None
+    if hand is not None and run.hand is not None:
+        names = run.hand.part_names
+        out["fingers"] = summary.part_forces(
+            result.contact_fields.get("hand"),
+            node_parts(hand.mesh, len(names)),
+            names,
+            hand.node_areas,
+        )
+    strains = {}
+    for b in bodies:
+        e = summary.max_strain(
+            b.mesh, result.displacement[b.name], bbar=b.bbar, nodal_pressure=b.nodal_pressure
+        )
+        strains[b.name] = e
+        if e > summary.SMALL_STRAIN:
+            log.warning(
+                "t = %g: the %s's largest strain is %.0f %%, past %.0f %%: beyond small-strain "
+                "linear elasticity, its forces and stresses are an extrapolation",
+                t,
+                b.name,
+                100 * e,
+                100 * summary.SMALL_STRAIN,
+            )
+    out["max_strain"] = strains
+    return out
 
 
 def _progress(total: int, quiet: bool):
@@ -205,7 +261,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--no-pictures", action="store_true", help="write no PNG frames, GIF or stress pictures"
     )
     ap.add_argument(
-        "--quiet", action="store_true", help="no progress bar and no log messages but errors"
+        "--pose-only",
+        action="store_true",
+        help="pose the hand and place the ball at every frame without solving any contact; "
+        "write the posed hand, the ball and pose.json (each fingertip and each part's "
+        "distance to the ball) into DIR (default: output.directory with _pose appended)",
+    )
+    ap.add_argument(
+        "--quiet",
+        action="store_true",
+        help="no progress bar, no report on stdout and no log messages but errors",
     )
     ap.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     args = ap.parse_args(argv)
@@ -218,6 +283,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     shown = warnings.showwarning
     warnings.showwarning = _warn_line
     try:
+        if args.pose_only:
+            return pose_only(args.scene, out=args.out, frames=args.frames, quiet=args.quiet)
         return run(
             args.scene,
             out=args.out,

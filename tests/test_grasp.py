@@ -182,8 +182,9 @@ def test_help_and_version_from_a_subprocess():
         check=False,
     )
     assert run.returncode == 0
-    for option in ("--out", "--frames", "--no-pictures", "--quiet", "--version", "Exit status"):
+    for option in ("--out", "--frames", "--no-pictures", "--pose-only", "--quiet", "--version"):
         assert option in run.stdout
+    assert "Exit status" in run.stdout
     run = subprocess.run(
         [sys.executable, "-m", "contact.grasp", "--version"],
         capture_output=True,
@@ -248,3 +249,61 @@ def test_a_ball_mesh_file_with_nan_coordinates_is_bad_input(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "ball.vtu" in err and "\n" not in err.strip() and "Traceback" not in err
     assert not out.exists()
+
+
+def test_pose_only_writes_the_posed_hand_the_ball_and_where_each_finger_is(tmp_path, capsys):
+    """The index of finger_press is flexed 0.5 mm, then 1 mm, into the ball: its nearest
+    skin node is inside by about that (the ball's facets lie inside the sphere); the
+    other parts stay centimetres away; nothing is solved."""
+    from contact.report import parse_line
+
+    out = tmp_path / "pose"
+    scene = ROOT / "examples" / "finger_press.toml"
+    assert main([str(scene), "--pose-only", "--out", str(out)]) == 0
+    names = sorted(p.name for p in out.iterdir())
+    assert names == [
+        "ball.pvd", "ball_0000.vtu", "ball_0001.vtu", "ball_0002.vtu",
+        "hand.pvd", "hand_0000.vtu", "hand_0001.vtu", "hand_0002.vtu", "pose.json",
+    ]  # fmt: skip
+    doc = json.loads((out / "pose.json").read_text())
+    frames = doc["frames"]
+    assert [f["time"] for f in frames] == [0.0, 0.5, 1.0]
+    index = [f["parts"]["index"]["nearest"]["distance"] for f in frames]
+    assert index[0] > 0.01  # not yet flexed
+    assert -0.0006 < index[1] < -0.0003 and -0.0011 < index[2] < -0.0008
+    for f in frames:
+        parts = f["parts"]
+        assert set(parts) == {"palm", "thumb", "index", "middle", "ring", "little"}
+        assert "tip" not in parts["palm"]
+        for name, rec in parts.items():
+            if name != "index":
+                assert rec["nearest"]["distance"] > 0.01
+            if "tip" in rec:
+                assert len(rec["tip"]["position"]) == 3
+                assert rec["tip"]["distance"] >= rec["nearest"]["distance"]
+    assert "index_mcp" in frames[1]["auto_flexion"]
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 4
+    rec = parse_line(lines[2])
+    near = dict(p.split(":") for p in rec["nearest_mm"].split(","))
+    assert float(near["I"]) == pytest.approx(1e3 * index[2], abs=1e-3 * abs(1e3 * index[2]))
+    assert list(dict(p.split(":") for p in rec["tip_mm"].split(","))) == list("TIMRL")
+    assert parse_line(lines[-1]) == {"frames": "3", "results": str(out)}
+    # a second run replaces the pose folder; a folder of other files is refused
+    assert main([str(scene), "--pose-only", "--out", str(out), "--frames", "1", "--quiet"]) == 0
+    assert [f["index"] for f in json.loads((out / "pose.json").read_text())["frames"]] == [1]
+    assert capsys.readouterr().out == ""
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "notes.txt").write_text("mine")
+    assert main([str(scene), "--pose-only", "--out", str(other), "--quiet"]) == 2
+    assert "not a pose folder" in capsys.readouterr().err
+    assert sorted(p.name for p in other.iterdir()) == ["notes.txt"]
+
+
+def test_pose_only_needs_a_hand(tmp_path, capsys):
+    scene, out = write(tmp_path)
+    assert main([str(scene), "--pose-only"]) == 2
+    err = capsys.readouterr().err
+    assert "--pose-only needs a [hand]" in err and "\n" not in err.strip()
+    assert not Path(f"{out}_pose").exists()

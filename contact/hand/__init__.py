@@ -17,6 +17,7 @@ from .blockcg import block_cg, block_pattern
 from .bones import bone_profile, bone_surfaces, joint_clearance, sweep_bone
 from .build import COARSE, FINE, Resolution, build_hand, hand_report, write_hand
 from .checks import bone_gaps, check_hand_geometry, finger_widths, flesh_thickness
+from .fingers import cell_parts, fingertips, node_parts, part_letters
 from .flesh import (
     cell_bones,
     joint_pairs,
@@ -100,12 +101,14 @@ __all__ = [
     "bridging_nodes",
     "build_hand",
     "cell_bones",
+    "cell_parts",
     "check_hand_geometry",
     "expected_halvings",
     "field_on_grid",
     "field_threshold",
     "finger_widths",
     "fingertip_node",
+    "fingertips",
     "flesh_thickness",
     "gap_edges",
     "hand_files",
@@ -119,7 +122,9 @@ __all__ = [
     "load_skeleton",
     "merged_surface",
     "muscle_profile",
+    "node_parts",
     "open_joints",
+    "part_letters",
     "patch_energy",
     "plane_distance",
     "pose_hand",

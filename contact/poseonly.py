@@ -1,0 +1,234 @@
+"""``python -m contact.grasp SCENE.toml --pose-only``: pose the hand and place the ball, no solve.
+
+For every frame the hand is posed as a grasp run poses it (keyframes, then automatic
+flexion, the flesh mapped by JLD and relaxed; :class:`contact.run.GraspRun`'s pieces) and
+the ball placed, and no contact is resolved: a user places a ball or aims a pinch from
+where each finger is. The folder (default ``<output.directory>_pose``) holds::
+
+    pose.json              per frame: angles, automatic flexions, each part's nearest skin
+                           node and each fingertip, with positions and distances to the ball
+    hand_NNNN.vtu          the posed hand (point data part, bone_id; cell data region)
+    ball_NNNN.vtu          the placed ball
+    hand.pvd, ball.pvd     the series
+
+Distances are signed, to the ball's meshed outer surface (m, negative inside the ball).
+A fingertip is a skin node: the boundary node farthest along the finger's distal bone
+(:func:`contact.hand.fingers.fingertips`); since a finger meets a ball with its pad, a
+part's ``nearest`` node is what says whether it touches. The folder is written through a
+staging folder and replaces only an empty folder or an earlier pose folder (one holding a
+``pose.json``).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import shutil
+import sys
+import uuid
+import xml.etree.ElementTree as ET
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import fem
+
+from .errors import ContactError, InputError, OutputError
+from .geometry.surfacequery import TriangleSurface, surface_of_mesh
+from .hand.fingers import fingertips, node_parts
+from .hand.posing import Pose
+from .output.staging import make_staging, write_atomic
+from .output.summary import jsonable
+from .report import pose_line
+from .run import GraspRun
+from .scene.read import load_scene
+
+__all__ = ["pose_frame", "pose_only"]
+
+log = logging.getLogger(__name__)
+
+
+def pose_frame(run: GraspRun, t: float, start: Pose | None = None) -> tuple[Pose, fem.Mesh, dict]:
+    """The hand posed and the ball placed at ``t``, and where each part is from the ball.
+
+    Parameters
+    ----------
+    run : GraspRun
+        The scene's run (with a hand).
+    t : float
+        Frame time.
+    start : Pose, optional
+        The previous frame's pose (warm start of the flesh's relaxation).
+
+    Returns
+    -------
+    pose : Pose
+        The posed hand.
+    ball : fem.Mesh
+        The placed ball.
+    record : dict
+        ``angles``, ``auto_flexion`` (as a grasp run records it), ``min_tet_quality``,
+        ``parts``: part name -> ``nearest`` ``{node, position, distance}`` (the part's
+        skin node nearest the ball) and, for a finger, ``tip`` likewise.
+    """
+    hand = run.hand
+    assert hand is not None and run.poser is not None
+    angles = run.angles(t)
+    pose = run.poser.pose(angles, start=start)
+    tf = run.ball_transform(t)
+    m = run.ball.mesh
+    ball = fem.Mesh(m.points @ tf[:3, :3].T + tf[:3, 3], m.cells, m.regions)
+    surface = TriangleSurface(
+        ball.points, surface_of_mesh(ball, run.ball.outer)[1], name="ball surface"
+    )
+    names = hand.part_names
+    parts = node_parts(hand.flesh, len(names))
+    skin = hand.skin_faces.nodes
+    tips = fingertips(hand)
+    tip_nodes = np.array(list(tips.values()), dtype=np.int64)
+    d_skin = surface.signed_distance(pose.points[skin])
+    d_tip = surface.signed_distance(pose.points[tip_nodes])
+
+    def point(node: int, distance: float) -> dict[str, Any]:
+        return {"node": int(node), "position": pose.points[node], "distance": float(distance)}
+
+    record: dict[str, Any] = {"angles": angles}
+    if run.auto_flexed:
+        record["auto_flexion"] = run.auto_flexed
+    record["min_tet_quality"] = float(pose.min_quality)
+    out: dict[str, dict[str, Any]] = {}
+    for i, name in enumerate(names):
+        own = np.flatnonzero(parts[skin] == i)
+        out[name] = {}
+        if own.size:
+            k = own[np.argmin(d_skin[own])]
+            out[name]["nearest"] = point(skin[k], d_skin[k])
+    for (finger, node), d in zip(tips.items(), d_tip, strict=True):
+        out.setdefault(finger, {})["tip"] = point(node, d)
+    record["parts"] = out
+    return pose, ball, jsonable(record)
+
+
+def pose_only(
+    scene_path: str | Path,
+    *,
+    out: str | Path | None = None,
+    frames: Sequence[int] | None = None,
+    quiet: bool = False,
+) -> int:
+    """Pose every frame of a scene and write the pose folder; no contact is solved.
+
+    Parameters
+    ----------
+    scene_path : str or Path
+        The scene file (with a ``[hand]``).
+    out : str or Path, optional
+        The folder; default the scene's ``output.directory`` with ``_pose`` appended.
+    frames : sequence of int, optional
+        Indices of the frames to pose; default all.
+    quiet : bool
+        No line on stdout.
+
+    Returns
+    -------
+    int
+        0, or 2 on bad input (one line on stderr, nothing written).
+    """
+    try:
+        scene = load_scene(scene_path)
+        if scene.hand is None:
+            raise InputError("--pose-only needs a [hand]: the scene has none")
+        times = list(scene.frames)
+        chosen = sorted(set(range(len(times)) if frames is None else frames))
+        bad = [i for i in chosen if not 0 <= i < len(times)]
+        if bad:
+            raise InputError(f"--frames {bad[0]}: the scene has frames 0..{len(times) - 1}")
+        default = scene.output.directory
+        directory = Path(os.path.abspath(out if out is not None else f"{default}_pose"))
+        _check_target(directory)
+        staging = make_staging(directory)
+    except (ContactError, ValueError, OSError) as exc:
+        print(f"error: {scene_path}: {exc}", file=sys.stderr)
+        return 2
+    try:
+        records = _write_frames(GraspRun(scene), times, chosen, staging, quiet)
+        doc = {"scene": str(scene.path), "units": "m", "frames": records}
+        write_atomic(staging / "pose.json", (json.dumps(doc, indent=2) + "\n").encode())
+        for body in ("hand", "ball"):
+            _write_pvd(staging / f"{body}.pvd", [(r["time"], r["files"][body]) for r in records])
+        _swap(staging, directory)
+    except (ContactError, ValueError, fem.FemError, OSError) as exc:
+        shutil.rmtree(staging, ignore_errors=True)
+        print(f"error: {scene.path}: {exc}", file=sys.stderr)
+        return 2
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+    if not quiet:
+        print(f"frames={len(records)} results={directory}")
+    return 0
+
+
+def _write_frames(
+    run: GraspRun, times: list[float], chosen: list[int], staging: Path, quiet: bool
+) -> list[dict[str, Any]]:
+    """Pose the chosen frames in time order; write their VTU files; their records."""
+    assert run.hand is not None
+    records = []
+    pose = None
+    n_parts = len(run.hand.part_names)
+    for i in chosen:
+        t = times[i]
+        pose, ball, rec = pose_frame(run, t, start=pose)
+        mesh = pose.mesh()
+        files = {"hand": f"hand_{i:04d}.vtu", "ball": f"ball_{i:04d}.vtu"}
+        data = {"part": node_parts(mesh, n_parts), "bone_id": run.hand.bone_id}
+        fem.write_mesh(staging / files["hand"], mesh, point_data=data)
+        fem.write_mesh(staging / files["ball"], ball)
+        records.append({"index": i, "time": t, **rec, "files": files})
+        if not quiet:
+            near = {k: v["nearest"]["distance"] for k, v in rec["parts"].items() if "nearest" in v}
+            tips = {k: v["tip"]["distance"] for k, v in rec["parts"].items() if "tip" in v}
+            print(pose_line(i, t, near, tips), flush=True)
+    return records
+
+
+def _check_target(directory: Path) -> None:
+    """Refuse a folder that exists and is neither empty nor a pose folder."""
+    d = directory
+    if d.is_symlink() or (d.exists() and not d.is_dir()):
+        raise OutputError(f"pose folder {d} exists and is not a folder")
+    if d.is_dir() and any(d.iterdir()) and not (d / "pose.json").is_file():
+        raise OutputError(
+            f"pose folder {d} exists and is not a pose folder (no pose.json): refusing to "
+            "replace it"
+        )
+
+
+def _swap(staging: Path, directory: Path) -> None:
+    """Put the complete staging folder in place of ``directory``; the old one goes last."""
+    _check_target(directory)
+    old = None
+    if directory.exists():
+        old = directory.with_name(f".{directory.name}.old-{uuid.uuid4().hex[:12]}")
+        os.rename(directory, old)
+    try:
+        os.rename(staging, directory)
+    except BaseException:
+        if old is not None:
+            os.rename(old, directory)
+        raise
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
+
+
+def _write_pvd(path: Path, series: list[tuple[float, str]]) -> None:
+    root = ET.Element("VTKFile", type="Collection", version="0.1", byte_order="LittleEndian")
+    coll = ET.SubElement(root, "Collection")
+    for t, name in series:
+        ET.SubElement(coll, "DataSet", timestep=repr(t), group="", part="0", file=name)
+    ET.indent(root)
+    write_atomic(path, b'<?xml version="1.0"?>\n' + ET.tostring(root) + b"\n")
