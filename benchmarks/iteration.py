@@ -435,7 +435,7 @@ def run(quick: bool = False, out: str | Path | None = None) -> list[dict]:
 def _code_version() -> str:
     """The git commit, whether contact/, fem/ or meshes/ differ from it, and digests."""
     root = Path(contact.__file__).resolve().parent
-    digest = hashlib.sha1(b"".join(f.read_bytes() for f in sorted(root.glob("*.py"))))
+    digest = hashlib.sha1(b"".join(f.read_bytes() for f in sorted(root.rglob("*.py"))))
     hand = sorted((root.parent / "meshes" / "hand").glob("flesh_*.vtu"))
     meshes = hashlib.sha1(b"".join(f.read_bytes() for f in hand)).hexdigest()[:12]
     try:

@@ -23,9 +23,10 @@ and solved by a semismooth Newton method: each step is the primal-dual active se
 Hueber, Stadler and Wohlmuth (2008) (open, stick and slip contacts read off ``xi`` and
 ``z``), with their slip derivative, then a backtracking line search on ``|F|^2``.
 ``c_p`` and ``c_t`` are the inverse diagonal compliances, which makes every residual a
-force. Where the active sets cycle, it starts again with other multiples of them, with
-and without a line search (:data:`STRATEGIES`); the last resort is a fixed point of
-Tresca problems (the radii ``mu N`` of the last normal forces) finished by Coulomb's.
+force. Where the active sets cycle, it starts again with another multiple of them, then
+tries a fixed point of Tresca problems (the radii ``mu N`` of the last normal forces)
+finished by Coulomb's, then other multiples with and without a line search
+(:data:`PHASES`).
 Where ``mu = 0`` everywhere the frictionless LCP (:mod:`contact.solver.lcp`) is used
 instead.
 """
@@ -57,6 +58,9 @@ TRY_STEPS = 40
 #: (a backtracking line search on ``|F|^2``) or taken whole: the natural map's roots do
 #: not depend on them, the active sets the steps visit do.
 STRATEGIES = ((1.0, False), (0.3, False), (0.1, False), (3.0, False), (1.0, True), (0.3, True))
+#: The order the solve tries them in, with the fixed point of Tresca problems (the radii
+#: ``mu N`` of the last normal forces) after the first two.
+PHASES = (*STRATEGIES[:2], "tresca", *STRATEGIES[2:])
 #: Newton steps that polish a solve past the tolerance, towards :data:`POLISH_TOL`.
 POLISH = 3
 POLISH_TOL = 1e-14
@@ -65,7 +69,7 @@ POLISH_TOL = 1e-14
 DEGENERATE = 1e-10
 #: The shift, over the largest Jacobian entry, of a singular Newton system.
 SHIFT = 1e-10
-#: Tresca solves of the last resort (each with the radii of the last normal forces).
+#: Tresca solves of the fixed point (each with the radii of the last normal forces).
 TRESCA = 30
 
 #: Weight of the free bodies' balance in the line search's merit ``|F|^2``. It changes no
@@ -331,17 +335,18 @@ def _newton(w, g, rhs, c, mu, tangent, start, load_scale, tol, max_steps) -> Fri
 
     best = (measure(lam, a), lam, a)
     steps = 0
-    for factor, search in STRATEGIES:
+    for phase in PHASES:
         if best[0] <= tol or steps >= max_steps:
             break
-        x, n = _descend(base.scaled(factor), lam, a, measure, tol, search, max_steps - steps)
-        steps += n
-        if x[0] < best[0]:
-            best = x
-    if best[0] > tol and steps < max_steps and base.fr.size:
-        # the last resort: Tresca's law with the radii of the last normal forces, in
-        # turn, until the normal forces settle; then Coulomb's from there
-        x, n = _tresca(base, best, measure, tol, max_steps - steps)
+        if phase == "tresca":
+            if not base.fr.size:
+                continue
+            # Tresca's law with the radii of the last normal forces, in turn, until the
+            # normal forces settle; then Coulomb's from there
+            x, n = _tresca(base, best, measure, tol, max_steps - steps)
+        else:
+            factor, search = phase
+            x, n = _descend(base.scaled(factor), lam, a, measure, tol, search, max_steps - steps)
         steps += n
         if x[0] < best[0]:
             best = x
