@@ -184,6 +184,14 @@ class _Problem:
             "lt": lt,
         }
 
+    def inactive(self, s: dict) -> NDArray[np.bool_]:
+        """The unknowns whose rows of ``F`` are their own value (open contacts' forces)."""
+        out = np.zeros(self.m + self.r, dtype=bool)
+        out[: self.k] = ~s["closed"]
+        free = ~s["stick"] & (s["radius"] <= 0)
+        out[self.t[free].ravel()] = True
+        return out
+
     def jacobian(self, s: dict) -> NDArray:
         k, m, r, fr, t = self.k, self.m, self.r, self.fr, self.t
         n = m + r
@@ -236,6 +244,21 @@ def _size(f: NDArray, m: int) -> float:
         float(np.abs(f[:m]).max(initial=0.0)),
         float(np.abs(f[m:]).max(initial=0.0)) / BALANCE_WEIGHT,
     )
+
+
+def _reduced_step(j: NDArray, f: NDArray, inactive: NDArray[np.bool_]) -> NDArray:
+    """Newton step ``J d = -F`` with the open contacts' rows (``J`` = identity) taken out.
+
+    Their forces step to zero (``d = -F`` there); the rest is a system of the closed
+    contacts and the free bodies' modes only: a few rows where the candidates are many.
+    """
+    d = np.empty_like(f)
+    d[inactive] = -f[inactive]
+    act = ~inactive
+    if act.any():
+        ja = j[np.ix_(act, act)]
+        d[act] = _step(ja, f[act] + j[np.ix_(act, inactive)] @ d[inactive])
+    return d
 
 
 def _step(j: NDArray, f: NDArray) -> NDArray:
@@ -401,7 +424,7 @@ def _descend(prob: _Problem, lam, a, measure, tol, search: bool, budget: int):
     trail = [best[0]]
     n = 0
     while best[0] > tol and n < min(TRY_STEPS, budget):
-        d = _step(prob.jacobian(s), f)
+        d = _reduced_step(prob.jacobian(s), f, prob.inactive(s))
         if not np.isfinite(d).all():
             break
         x0 = np.concatenate([lam, a])
