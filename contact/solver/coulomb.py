@@ -83,6 +83,7 @@ def friction_state(
         cone_use=cone[keep],
         slip=slip[keep],
         report=report,
+        pair_mu=friction.mu.copy(),
     )
 
 

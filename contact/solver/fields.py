@@ -36,6 +36,9 @@ class FrictionState:
     slip : ndarray, shape (k,)
         Slip increment since the anchor (m).
     report : FrictionReport
+    pair_mu : ndarray
+        Each pair's coefficient as solved: 0 on the side of an interface met both ways
+        that takes no tangential rows (:func:`contact.solver.tangential.one_way`).
     """
 
     rows: ContactRows
@@ -45,6 +48,7 @@ class FrictionState:
     cone_use: NDArray[np.float64]
     slip: NDArray[np.float64]
     report: FrictionReport
+    pair_mu: NDArray[np.float64]
 
     def per_contact(self) -> dict[str, NDArray]:
         """The per-contact arrays of :attr:`FrameResult.contacts`."""
@@ -68,13 +72,18 @@ def contact_fields(
     """Every body's nodal contact fields (see :attr:`FrameResult.contact_fields`).
 
     The normal force of a node is the size of what the normal rows put on it, its
-    tangential force the rest of its contact force; status and cone use are a slave
-    node's, the largest over its contacts (a frictionless closed contact slips).
+    tangential force the rest of its contact force; status and cone use are the largest
+    over the contacts of a node: a slave node's own, and a master facet's nodes' where
+    the friction of an interface met both ways is solved on the other side (a
+    frictionless closed contact slips).
     """
     status = np.full(len(rows), 2, np.int64)
     cone = np.zeros(len(rows))
+    solved = np.array([p.friction for p in pairs], dtype=float)
     if friction is not None:
-        status, cone = friction.status, friction.cone_use
+        status, cone, solved = friction.status, friction.cone_use, friction.pair_mu
+    # pairs whose friction the opposite pair solves: their nodes take its status instead
+    handed = np.array([p.friction > 0 and m == 0 for p, m in zip(pairs, solved)], dtype=bool)
     out = {}
     for b in bodies:
         n = b.mesh.n_points
@@ -83,9 +92,19 @@ def contact_fields(
         st = np.zeros(n, np.int64)
         cu = np.zeros(n)
         mine = np.array([p.slave is b for p in pairs], dtype=bool)
-        sel = mine[rows.pair] if len(rows) else np.zeros(0, bool)
+        sel = (mine & ~handed)[rows.pair] if len(rows) else np.zeros(0, bool)
         np.maximum.at(st, rows.node[sel], status[sel])
         np.maximum.at(cu, rows.node[sel], cone[sel])
+        facing = np.array(
+            [not p.rigid and p.master is b and m > 0 for p, m in zip(pairs, solved)], dtype=bool
+        )
+        rel = facing[rows.pair] if len(rows) else np.zeros(0, bool)
+        if rel.any() and rows.m_nodes.shape[1]:
+            nodes, w = rows.m_nodes[rel], rows.m_coef[rel]
+            used = (nodes >= 0) & (w > 0)
+            k = np.broadcast_to(np.arange(rel.sum())[:, None], nodes.shape)[used]
+            np.maximum.at(st, nodes[used], status[rel][k])
+            np.maximum.at(cu, nodes[used], cone[rel][k])
         out[b.name] = {
             "normal_force": np.linalg.norm(fn, axis=1),
             "tangential_force": np.asarray(contact_force[b.name]) - fn,

@@ -20,9 +20,36 @@ from .delassus import BodyState, ContactSpace
 from .friction import FrictionResult, solve_friction
 from .rows import ContactRows
 
-__all__ = ["Friction", "end_anchors", "tangent_basis"]
+__all__ = ["Friction", "end_anchors", "one_way", "tangent_basis"]
 
 _Key = tuple[int, int]
+
+
+def one_way(frame) -> NDArray[np.float64]:
+    """Each pair's coefficient, an interface met both ways taking friction on one side only.
+
+    Where two bodies are paired both ways (each one's nodes against the other's
+    surface), the normal rows of both are needed, but tangential rows on both sides of
+    one interface hold the same slip twice: the stick constraints repeat one another and
+    the tangential forces are not unique. They are taken on the side whose contact nodes
+    are the finer (the smaller median element size), and its tangential forces reach
+    the other side through its rows' facet weights, action and reaction.
+    """
+    pairs = frame.pairs
+    mu = np.array([float(p.friction) for p in pairs])
+    for i, a in enumerate(pairs):
+        for j in range(i + 1, len(pairs)):
+            b = pairs[j]
+            if a.rigid or b.rigid or a.slave is not b.master or b.slave is not a.master:
+                continue
+            size = [
+                float(np.median(frame.local[p.slave.name][p.candidates]))
+                if p.candidates.size
+                else np.inf
+                for p in (a, b)
+            ]
+            mu[j if size[0] <= size[1] else i] = 0.0
+    return mu
 
 
 def tangent_basis(normal: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
@@ -53,7 +80,7 @@ class Friction:
         self.frame = frame
         self.previous = {} if anchors is None else anchors.displacement
         self.motion = {} if anchors is None else anchors.motion
-        self.mu = np.array([float(p.friction) for p in frame.pairs])
+        self.mu = one_way(frame)
         self.active = bool((self.mu > 0).any())
         index = {p.name: i for i, p in enumerate(frame.pairs)}
         self.anchor: dict[_Key, tuple[NDArray, NDArray, NDArray]] = {}
