@@ -38,7 +38,7 @@ class FrictionState:
     report : FrictionReport
     pair_mu : ndarray
         Each pair's coefficient as solved: 0 on the side of an interface met both ways
-        that takes no tangential rows (:func:`contact.solver.tangential.one_way`).
+        that takes no tangential rows (:meth:`contact.solver.tangential.Friction.one_way`).
     """
 
     rows: ContactRows

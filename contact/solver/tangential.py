@@ -20,23 +20,18 @@ from .delassus import BodyState, ContactSpace
 from .friction import FrictionResult, solve_friction
 from .rows import ContactRows
 
-__all__ = ["Friction", "end_anchors", "one_way", "tangent_basis"]
+__all__ = ["Friction", "couples", "end_anchors", "tangent_basis"]
 
 _Key = tuple[int, int]
 
 
-def one_way(frame) -> NDArray[np.float64]:
-    """Each pair's coefficient, an interface met both ways taking friction on one side only.
+def couples(frame) -> list[tuple[int, int]]:
+    """Pairs of pairs that meet one interface both ways: ``(i, j)``, ``i`` the finer side.
 
-    Where two bodies are paired both ways (each one's nodes against the other's
-    surface), the normal rows of both are needed, but tangential rows on both sides of
-    one interface hold the same slip twice: the stick constraints repeat one another and
-    the tangential forces are not unique. They are taken on the side whose contact nodes
-    are the finer (the smaller median element size), and its tangential forces reach
-    the other side through its rows' facet weights, action and reaction.
+    The finer side is the one whose contact nodes have the smaller median element size.
     """
     pairs = frame.pairs
-    mu = np.array([float(p.friction) for p in pairs])
+    out = []
     for i, a in enumerate(pairs):
         for j in range(i + 1, len(pairs)):
             b = pairs[j]
@@ -48,8 +43,8 @@ def one_way(frame) -> NDArray[np.float64]:
                 else np.inf
                 for p in (a, b)
             ]
-            mu[j if size[0] <= size[1] else i] = 0.0
-    return mu
+            out.append((i, j) if size[0] <= size[1] else (j, i))
+    return out
 
 
 def tangent_basis(normal: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
@@ -80,14 +75,16 @@ class Friction:
         self.frame = frame
         self.previous = {} if anchors is None else anchors.displacement
         self.motion = {} if anchors is None else anchors.motion
-        self.mu = one_way(frame)
-        self.active = bool((self.mu > 0).any())
+        self.base = np.array([float(p.friction) for p in frame.pairs])
+        self.mu = self.base.copy()  # as solved: one side of each couple (see one_way)
+        self.couples = couples(frame)
+        self.active = bool((self.base > 0).any())
         index = {p.name: i for i, p in enumerate(frame.pairs)}
         self.anchor: dict[_Key, tuple[NDArray, NDArray, NDArray]] = {}
         if anchors is not None:
             for k in range(len(anchors)):
                 i = index.get(str(anchors.pair[k]))
-                if i is not None and self.mu[i] > 0:
+                if i is not None and self.base[i] > 0:
                     key = (i, int(anchors.node[k]))
                     self.anchor[key] = (anchors.facet[k], anchors.weights[k], anchors.point[k])
         self.iterations = 0
@@ -112,7 +109,7 @@ class Friction:
     def register(self, rows: ContactRows, u: dict[str, NDArray]) -> None:
         """Anchor every frictional contact of ``rows`` met for the first time where it is now."""
         pairs = self.frame.pairs
-        for i in np.flatnonzero(self.mu[rows.pair] > 0):
+        for i in np.flatnonzero(self.base[rows.pair] > 0):
             key = (int(rows.pair[i]), int(rows.node[i]))
             if key in self.anchor:
                 continue
@@ -144,6 +141,24 @@ class Friction:
         return out
 
     # ------------------------------------------------------------------ rows
+    def one_way(self, rows: ContactRows, start: NDArray[np.float64] | None) -> None:
+        """Friction on one side of each interface met both ways, for the next solve.
+
+        Both sides keep their normal rows, but tangential rows on both sides of one
+        interface hold the same slip twice: the stick constraints repeat one another and
+        the tangential forces are not unique. They are taken on the side with more
+        contacts (rows pushing in the last solve, or rows at all before the first; the
+        finer side where even), and reach the other side through the rows' facet
+        weights, action and reaction.
+        """
+        self.mu = self.base.copy()
+        if not self.couples:
+            return
+        carry = rows.pair[start > 0] if start is not None else rows.pair
+        count = np.bincount(carry, minlength=len(self.base))
+        for finer, other in self.couples:
+            self.mu[finer if count[other] > count[finer] else other] = 0.0
+
     def rows(self, rows: ContactRows) -> tuple[ContactRows, NDArray[np.int64], NDArray]:
         """The normal rows followed by the frictional contacts' tangential rows.
 
@@ -206,30 +221,55 @@ class Friction:
         """Forces of the normal and tangential rows of ``rows`` and every body's state.
 
         ``start`` holds the normal rows' starting forces, ``carried`` each contact's
-        tangential force vector from the last solve.
+        tangential force vector from the last solve. Where the side of an interface met
+        both ways that took the tangential rows ends with fewer contacts than the other,
+        the solve is made again with them on the other side.
         """
-        full, tangent, mu = self.rows(rows)
-        e = self.frame.matrices(full)
-        sys_ = space.system(e, full.g0)
-        lam0 = None
-        if start is not None:
-            lam0 = np.zeros(len(full))
-            lam0[: len(rows)] = start
-            if carried:
-                has = np.flatnonzero(tangent[:, 0] >= 0)
-                t1, t2 = tangent_basis(rows.normal[has])
-                for j, i in enumerate(has):
-                    f = carried.get((int(rows.pair[i]), int(rows.node[i])))
-                    if f is not None:
-                        lam0[tangent[i]] = (f @ t1[j], f @ t2[j])
-        res = solve_friction(
-            sys_.w, sys_.g, sys_.rhs, sys_.c, mu=mu, tangent=tangent, start=lam0,
-            load_scale=sys_.load_scale,
-        )
-        self.iterations += res.iterations
+        self.one_way(rows, start)
+        for attempt in range(2):
+            full, tangent, mu = self.rows(rows)
+            e = self.frame.matrices(full)
+            sys_ = space.system(e, full.g0)
+            lam0 = self._start(rows, start, carried, tangent, len(full))
+            res = solve_friction(
+                sys_.w, sys_.g, sys_.rhs, sys_.c, mu=mu, tangent=tangent, start=lam0,
+                load_scale=sys_.load_scale,
+            )
+            self.iterations += res.iterations
+            chosen = self.mu.copy()
+            self.one_way(rows, res.lam[: len(rows)])  # the side its contacts now favour
+            if attempt or np.array_equal(self.mu, chosen):
+                self.mu = chosen
+                break
         self.last = res
         self.system = (sys_, mu, tangent)
         return res, space.states(e, res.lam, res.a), e, full, tangent
+
+    def _start(
+        self,
+        rows: ContactRows,
+        start: NDArray[np.float64] | None,
+        carried: dict[_Key, NDArray[np.float64]] | None,
+        tangent: NDArray[np.int64],
+        size: int,
+    ) -> NDArray[np.float64] | None:
+        """The forces a solve starts from.
+
+        The normal rows' ``start``, and the tangential forces ``carried`` by contact,
+        projected on the new tangent basis.
+        """
+        if start is None:
+            return None
+        lam0 = np.zeros(size)
+        lam0[: len(rows)] = start
+        if carried:
+            has = np.flatnonzero(tangent[:, 0] >= 0)
+            t1, t2 = tangent_basis(rows.normal[has])
+            for j, i in enumerate(has):
+                f = carried.get((int(rows.pair[i]), int(rows.node[i])))
+                if f is not None:
+                    lam0[tangent[i]] = (f @ t1[j], f @ t2[j])
+        return lam0
 
     def tangential_forces(
         self, rows: ContactRows, lam: NDArray[np.float64], tangent: NDArray[np.int64]
