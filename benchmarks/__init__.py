@@ -22,6 +22,7 @@ BENCHMARKS = (
     "iteration",
     "lcp",
     "frame",
+    "friction",
     "posing",
     "sfepy_hertz",
 )
