@@ -103,20 +103,32 @@ class FrameState:
         self.timings["mortar"] = time.perf_counter() - t
         self.contacts = ContactSet(self)
 
-    def mark_zones(self) -> None:
+    def mark_zones(
+        self,
+        start: Mapping[str, NDArray] | None = None,
+        extra: Mapping[str, NDArray[np.int64]] | None = None,
+    ) -> None:
         """Mark each body's contact zone for partial solves, then factor the bodies.
 
         The zone of each pair (:mod:`contact.solver.zone`): the expected patch and a ring
-        around it on the slave, and the master nodes those can reach, measured at rest.
-        Rows there get their compliance from partial solves (:meth:`fem.StaticSolver.mark`);
-        a row outside (the patch grew further) costs a full back-solve, nothing else.
+        around it on the slave, and the master nodes those can reach, measured at rest
+        (or at ``start``, where the frame's first search looks). Rows there get their
+        compliance from partial solves (:meth:`fem.StaticSolver.mark`); a row outside
+        (the patch grew further) costs a full back-solve, nothing else. ``extra`` nodes
+        are marked first (friction's anchors).
         """
         t = time.perf_counter()
         u = {b.name: np.zeros((b.mesh.n_points, 3)) for b in self.bodies}
+        if start is not None:
+            u.update({k: np.asarray(v) for k, v in start.items() if k in u})
         # candidate nodes of each body's zone, with how near they are (smaller first)
         zone: dict[str, list[tuple[NDArray[np.int64], NDArray[np.float64]]]] = {
             b.name: [] for b in self.bodies
         }
+        for name, nodes in (extra or {}).items():
+            if name in zone and len(nodes):
+                n = np.unique(np.asarray(nodes, dtype=np.int64))
+                zone[name].append((n, np.full(n.size, -np.inf)))
         for i, pair in enumerate(self.pairs):
             if i in self.mortar:
                 cand = self.mortar[i]

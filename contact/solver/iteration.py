@@ -29,6 +29,7 @@ from .pairs import ContactPair
 from .results import FrameResult, IterationRecord
 from .seed import solve_seed
 from .settings import ContactSettings
+from .tangential import friction_zone
 
 __all__ = ["solve_frame"]
 
@@ -82,7 +83,7 @@ def solve_frame(
     settings = settings or ContactSettings()
     with fem.sparse_threads():  # the cores are PARDISO's: no spinning OpenBLAS workers
         frame = FrameState(bodies, planes, pairs, settings, callback=callback)
-        frame.mark_zones()
+        frame.mark_zones(*friction_zone(frame, anchors))
         if settings.algorithm == "seed":
             if any(p.friction for p in pairs):
                 raise ContactError(

@@ -20,7 +20,7 @@ from .delassus import BodyState, ContactSpace
 from .friction import FrictionResult, solve_friction
 from .rows import ContactRows
 
-__all__ = ["Friction", "couples", "end_anchors", "tangent_basis"]
+__all__ = ["Friction", "couples", "end_anchors", "friction_zone", "tangent_basis"]
 
 _Key = tuple[int, int]
 
@@ -45,6 +45,36 @@ def couples(frame) -> list[tuple[int, int]]:
             ]
             out.append((i, j) if size[0] <= size[1] else (j, i))
     return out
+
+
+def friction_zone(frame, anchors: Anchors | None) -> tuple[dict, dict]:
+    """Where a frictional frame's contact zone is measured, and the nodes it must hold.
+
+    The bodies as the last frame left them (the first search looks there), and the nodes
+    of the anchors carried in (their slave nodes and their masters' facets), so that
+    the tangential rows get their compliance from partial solves too. Nothing without
+    friction or anchors: the zone is measured at rest, as it always is.
+    """
+    if anchors is None or not any(p.friction > 0 for p in frame.pairs):
+        return {}, {}
+    start = {
+        b.name: anchors.displacement[b.name]
+        for b in frame.bodies
+        if b.name in anchors.displacement
+        and anchors.displacement[b.name].shape == (b.mesh.n_points, 3)
+    }
+    extra: dict[str, list[NDArray[np.int64]]] = {}
+    index = {p.name: p for p in frame.pairs}
+    for name in np.unique(anchors.pair) if len(anchors) else ():
+        pair = index.get(str(name))
+        if pair is None or pair.friction <= 0:
+            continue
+        sel = anchors.pair == name
+        extra.setdefault(pair.slave.name, []).append(anchors.node[sel])
+        if not pair.rigid:
+            facets = anchors.facet[sel]
+            extra.setdefault(pair.master.name, []).append(facets[facets >= 0])
+    return start, {k: np.concatenate(v) for k, v in extra.items()}
 
 
 def tangent_basis(normal: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
