@@ -26,7 +26,6 @@ import logging
 import os
 import shutil
 import sys
-import uuid
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from pathlib import Path
@@ -36,11 +35,11 @@ import numpy as np
 
 import fem
 
-from .errors import ContactError, InputError, OutputError
+from .errors import ContactError, InputError
 from .geometry.surfacequery import TriangleSurface, surface_of_mesh
 from .hand.fingers import fingertips, node_parts
 from .hand.posing import Pose
-from .output.staging import make_staging, write_atomic
+from .output.staging import check_target, make_staging, swap_into_place, write_atomic
 from .output.summary import jsonable
 from .report import pose_line
 from .run import GraspRun
@@ -148,7 +147,7 @@ def pose_only(
             raise InputError(f"--frames {bad[0]}: the scene has frames 0..{len(times) - 1}")
         default = scene.output.directory
         directory = Path(os.path.abspath(out if out is not None else f"{default}_pose"))
-        _check_target(directory)
+        check_target(directory, "pose.json", "pose")
         staging = make_staging(directory)
     except (ContactError, ValueError, OSError) as exc:
         print(f"error: {scene_path}: {exc}", file=sys.stderr)
@@ -159,7 +158,7 @@ def pose_only(
         write_atomic(staging / "pose.json", (json.dumps(doc, indent=2) + "\n").encode())
         for body in ("hand", "ball"):
             _write_pvd(staging / f"{body}.pvd", [(r["time"], r["files"][body]) for r in records])
-        _swap(staging, directory)
+        swap_into_place(staging, directory, "pose.json", "pose")
     except (ContactError, ValueError, fem.FemError, OSError) as exc:
         shutil.rmtree(staging, ignore_errors=True)
         print(f"error: {scene.path}: {exc}", file=sys.stderr)
@@ -194,35 +193,6 @@ def _write_frames(
             tips = {k: v["tip"]["distance"] for k, v in rec["parts"].items() if "tip" in v}
             print(pose_line(i, t, near, tips), flush=True)
     return records
-
-
-def _check_target(directory: Path) -> None:
-    """Refuse a folder that exists and is neither empty nor a pose folder."""
-    d = directory
-    if d.is_symlink() or (d.exists() and not d.is_dir()):
-        raise OutputError(f"pose folder {d} exists and is not a folder")
-    if d.is_dir() and any(d.iterdir()) and not (d / "pose.json").is_file():
-        raise OutputError(
-            f"pose folder {d} exists and is not a pose folder (no pose.json): refusing to "
-            "replace it"
-        )
-
-
-def _swap(staging: Path, directory: Path) -> None:
-    """Put the complete staging folder in place of ``directory``; the old one goes last."""
-    _check_target(directory)
-    old = None
-    if directory.exists():
-        old = directory.with_name(f".{directory.name}.old-{uuid.uuid4().hex[:12]}")
-        os.rename(directory, old)
-    try:
-        os.rename(staging, directory)
-    except BaseException:
-        if old is not None:
-            os.rename(old, directory)
-        raise
-    if old is not None:
-        shutil.rmtree(old, ignore_errors=True)
 
 
 def _write_pvd(path: Path, series: list[tuple[float, str]]) -> None:

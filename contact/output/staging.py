@@ -44,26 +44,29 @@ def write_atomic(path: Path, data: bytes) -> None:
         raise
 
 
-def check_target(directory: Path) -> None:
-    """Refuse a results folder that exists and is neither empty nor a results folder.
+def check_target(directory: Path, marker: str = "summary.json", kind: str = "results") -> None:
+    """Refuse a folder that exists and is neither empty nor one this program wrote.
 
     Parameters
     ----------
     directory : Path
+    marker : str
+        The file a folder of this kind holds (``summary.json``, ``pose.json``).
+    kind : str
+        The folder's kind, for the message.
 
     Raises
     ------
     OutputError
-        When ``directory`` is a file or a link, or a folder with files but no
-        ``summary.json``.
+        When ``directory`` is a file or a link, or a folder with files but no ``marker``.
     """
     d = directory
     if d.exists() or d.is_symlink():
         if d.is_symlink() or not d.is_dir():
-            raise OutputError(f"results folder {d} exists and is not a folder")
-        if any(d.iterdir()) and not (d / "summary.json").is_file():
+            raise OutputError(f"{kind} folder {d} exists and is not a folder")
+        if any(d.iterdir()) and not (d / marker).is_file():
             raise OutputError(
-                f"results folder {d} exists and is not a results folder (no summary.json):"
+                f"{kind} folder {d} exists and is not a {kind} folder (no {marker}):"
                 " refusing to replace it"
             )
 
@@ -99,7 +102,9 @@ def make_staging(directory: Path) -> Path:
     return staging
 
 
-def swap_into_place(staging: Path, directory: Path) -> None:
+def swap_into_place(
+    staging: Path, directory: Path, marker: str = "summary.json", kind: str = "results"
+) -> None:
     """Rename the old folder aside, the staging folder into place, delete the old.
 
     Parameters
@@ -108,6 +113,8 @@ def swap_into_place(staging: Path, directory: Path) -> None:
         The complete new results.
     directory : Path
         The results folder.
+    marker, kind
+        As for :func:`check_target`.
 
     Raises
     ------
@@ -116,7 +123,7 @@ def swap_into_place(staging: Path, directory: Path) -> None:
     OSError
         When a rename fails; the old results are then put back where possible.
     """
-    check_target(directory)
+    check_target(directory, marker, kind)
     d = directory
     old = None
     if d.exists():
