@@ -26,7 +26,6 @@ import logging
 import os
 import shutil
 import sys
-import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -41,6 +40,7 @@ from .hand.fingers import fingertips, node_parts
 from .hand.posing import Pose
 from .output.staging import check_target, make_staging, swap_into_place, write_atomic
 from .output.summary import jsonable
+from .output.vtufields import write_pvd
 from .report import pose_line
 from .run import GraspRun
 from .scene.read import load_scene
@@ -157,7 +157,7 @@ def pose_only(
         doc = {"scene": str(scene.path), "units": "m", "frames": records}
         write_atomic(staging / "pose.json", (json.dumps(doc, indent=2) + "\n").encode())
         for body in ("hand", "ball"):
-            _write_pvd(staging / f"{body}.pvd", [(r["time"], r["files"][body]) for r in records])
+            write_pvd(staging / f"{body}.pvd", [(r["time"], r["files"][body]) for r in records])
         swap_into_place(staging, directory, "pose.json", "pose")
     except (ContactError, ValueError, fem.FemError, OSError) as exc:
         shutil.rmtree(staging, ignore_errors=True)
@@ -193,12 +193,3 @@ def _write_frames(
             tips = {k: v["tip"]["distance"] for k, v in rec["parts"].items() if "tip" in v}
             print(pose_line(i, t, near, tips), flush=True)
     return records
-
-
-def _write_pvd(path: Path, series: list[tuple[float, str]]) -> None:
-    root = ET.Element("VTKFile", type="Collection", version="0.1", byte_order="LittleEndian")
-    coll = ET.SubElement(root, "Collection")
-    for t, name in series:
-        ET.SubElement(coll, "DataSet", timestep=repr(t), group="", part="0", file=name)
-    ET.indent(root)
-    write_atomic(path, b'<?xml version="1.0"?>\n' + ET.tostring(root) + b"\n")

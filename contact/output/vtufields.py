@@ -17,6 +17,7 @@ region id of the palm, ``bone index_distal`` the bone id of that bone,
 
 from __future__ import annotations
 
+import xml.etree.ElementTree as ET
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -36,6 +37,7 @@ __all__ = [
     "field_data_xml",
     "units_name",
     "write_body_vtu",
+    "write_pvd",
 ]
 
 #: Order of the six components of the ``stress`` cell array (ParaView's for 6-component
@@ -195,3 +197,13 @@ def write_body_vtu(
     fem.write_mesh(path, mesh, point_data=point_data, cell_data=cells)
     write_atomic(path, add_field_data(path.read_bytes(), data))
     return vm
+
+
+def write_pvd(path: Path, series: Sequence[tuple[float, str]]) -> None:
+    """A ParaView time series: ``(time, file)`` pairs, written atomically to ``path``."""
+    root = ET.Element("VTKFile", type="Collection", version="0.1", byte_order="LittleEndian")
+    coll = ET.SubElement(root, "Collection")
+    for t, name in series:
+        ET.SubElement(coll, "DataSet", timestep=repr(t), group="", part="0", file=name)
+    ET.indent(root)
+    write_atomic(path, b'<?xml version="1.0"?>\n' + ET.tostring(root) + b"\n")

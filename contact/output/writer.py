@@ -45,7 +45,6 @@ import os
 import re
 import shutil
 import time
-import xml.etree.ElementTree as ET
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -71,7 +70,7 @@ from .staging import check_target, make_staging, swap_into_place, write_atomic
 from .status import contact_point_data, status_markers
 from .summary import frame_entry, summary_text
 from .summary import versions as _versions  # finish() has a parameter of this name
-from .vtufields import STRESS_COMPONENTS, write_body_vtu
+from .vtufields import STRESS_COMPONENTS, write_body_vtu, write_pvd
 
 __all__ = ["STRESS_COMPONENTS", "BodyFrame", "ResultsWriter"]
 
@@ -454,24 +453,12 @@ class ResultsWriter:
             raise RuntimeError(f"the results writer for {self.directory} is {self._state}")
 
     def _write_pvd(self, frames: list[_Frame]) -> dict[str, str]:
-        names = sorted({b for f in frames for b in f.vtu})
         out = {}
-        for body in names:
-            root = ET.Element(
-                "VTKFile", type="Collection", version="0.1", byte_order="LittleEndian"
-            )
-            coll = ET.SubElement(root, "Collection")
-            for f in frames:
-                if body in f.vtu:
-                    ET.SubElement(
-                        coll, "DataSet", timestep=repr(f.time), group="", part="0", file=f.vtu[body]
-                    )
-            ET.indent(root)
-            data = b'<?xml version="1.0"?>\n' + ET.tostring(root) + b"\n"
-            write_atomic(self.staging / f"{body}.pvd", data)
+        for body in sorted({b for f in frames for b in f.vtu}):
+            series = [(f.time, f.vtu[body]) for f in frames if body in f.vtu]
+            write_pvd(self.staging / f"{body}.pvd", series)
             out[body] = f"{body}.pvd"
         return out
-
 
 def _unit(v: ArrayLike) -> NDArray[np.float64]:
     a = np.asarray(v, dtype=np.float64).reshape(3)

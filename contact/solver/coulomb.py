@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from .delassus import ContactSpace
+from .delassus import ContactSpace, held_by_springs
 from .fields import FrictionState
 from .friction import FRICTION_TOLERANCE, SLIP, STICK, FrictionResult, solve_friction
 from .results import FrictionReport
@@ -18,8 +18,6 @@ __all__ = ["friction_state", "unheld"]
 #: this fraction of its loads or of its friction (held, it carries about the spring's
 #: stiffness over the contacts').
 UNBALANCED = 1e-3
-#: The spring's stiffness over the contacts' (the mean diagonal of the Delassus operator).
-SPRING = 1e-5
 
 
 def friction_state(
@@ -91,7 +89,7 @@ def unheld(frame, space: ContactSpace, friction: Friction, rows: ContactRows) ->
     """``"not held: ..."`` where the last solve found no balance for a free body, else None.
 
     Called when the frictional solve did not settle. The same contacts are solved with each
-    free body held by a soft spring in its rigid modes (:data:`SPRING`), a problem that
+    free body held by a soft spring in its rigid modes (`held_by_springs`), a problem that
     always has a solution: where the body is held the spring carries almost nothing, where
     it is not the spring carries the load the contacts could not. The message names the
     body, that load (N) and the way it slips, and the friction available (the sum of ``mu
@@ -101,23 +99,16 @@ def unheld(frame, space: ContactSpace, friction: Friction, rows: ContactRows) ->
     g, c = sys_.g, sys_.c
     if not g.shape[1]:
         return None
-    dw = float(np.mean(np.diag(sys_.w)))
-    dg = float(np.mean(np.einsum("ij,ij->i", g, g)))
-    soft = SPRING * dg / max(dw, 1e-300)  # spring stiffness in the modes' units
-    w = sys_.w + (g @ g.T) / soft
-    rhs = sys_.rhs + g @ c / soft
-    res = solve_friction(w, np.zeros((w.shape[0], 0)), rhs, np.zeros(0), mu=mu,
-                         tangent=tangent)
-    carried = g.T @ res.lam - c  # what the springs hold, in the modes
-    k = 0
+    w, rhs, _ = held_by_springs(sys_)
+    res = solve_friction(
+        w, np.zeros((w.shape[0], 0)), rhs, np.zeros(0), mu=mu, tangent=tangent
+    )
+    net = space.net_forces(g.T @ res.lam - c)  # what the springs hold
     worst: tuple[float, str] | None = None
     for body in frame.bodies:
-        if not body.solver.free_body:
+        if body.name not in net:
             continue
-        phi = space.placing(body)
-        r = phi.shape[1]
-        f = (phi @ carried[k : k + r]).reshape(-1, 3).sum(axis=0)
-        k += r
+        f = net[body.name]
         size = float(np.linalg.norm(f))
         mine = np.zeros(len(rows))
         for i, pair in enumerate(frame.pairs):

@@ -38,7 +38,7 @@ from ..errors import ContactError
 from .body import ElasticBody
 from .lcp import LcpResult, solve_lcp
 
-__all__ = ["SPRING", "TOUCHING", "BodyState", "ContactSpace", "ContactSystem"]
+__all__ = ["SPRING", "TOUCHING", "BodyState", "ContactSpace", "ContactSystem", "held_by_springs"]
 
 #: The stiffness of the spring that holds a free body the contacts do not
 #: (:meth:`ContactSpace.solve_held`) over the contacts' (the mean diagonal of the Delassus
@@ -283,6 +283,18 @@ class ContactSpace:
             )
         return res, self.states(e, res.lam, res.a)
 
+    def net_forces(self, modal: NDArray[np.float64]) -> dict[str, NDArray[np.float64]]:
+        """Each free body's net force ``(3,)`` (N) from forces ``modal`` in its placing modes."""
+        net = {}
+        k = 0
+        for body in self.bodies:
+            if body.solver.free_body:
+                phi = self.placing(body)
+                r = phi.shape[1]
+                net[body.name] = (phi @ modal[k : k + r]).reshape(-1, 3).sum(axis=0)
+                k += r
+        return net
+
     def solve_held(
         self, e: dict[str, sp.csr_matrix], g0: NDArray[np.float64], tol: NDArray[np.float64]
     ) -> tuple[LcpResult, dict[str, BodyState], dict[str, NDArray[np.float64]]]:
@@ -311,17 +323,10 @@ class ContactSpace:
         m = g0.size
         with fem.dense_threads(m):
             sys_ = self.system(e, g0)
-            w, g, c = sys_.w, sys_.g, sys_.c
-            dw = float(np.mean(np.diag(w))) if m else 1.0
-            dg = float(np.mean(np.einsum("ij,ij->i", g, g))) if m else 0.0
-            soft = SPRING * (dg if dg > 0 else 1.0) / max(dw, 1e-300)
+            g, c = sys_.g, sys_.c
+            w, rhs, soft = held_by_springs(sys_)
             res = solve_lcp(
-                w + g @ g.T / soft,
-                np.zeros((m, 0)),
-                sys_.rhs + g @ c / soft,
-                np.zeros(0),
-                tol=tol,
-                load_scale=sys_.load_scale,
+                w, np.zeros((m, 0)), rhs, np.zeros(0), tol=tol, load_scale=sys_.load_scale
             )
             carried = g.T @ res.lam - c  # what the springs hold, in the modes
             push = g[res.lam > 0]
@@ -329,16 +334,24 @@ class ContactSpace:
             big = sv > RANK_TOL * sv.max() if sv.size and sv.max() > 0 else np.zeros(0, bool)
             held = vt[big]  # the modes the pushing rows hold
             a = held.T @ (held @ (carried / soft))
-        net = {}
-        k = 0
-        for body in self.bodies:
-            if body.solver.free_body:
-                phi = self.placing(body)
-                r = phi.shape[1]
-                net[body.name] = (phi @ carried[k : k + r]).reshape(-1, 3).sum(axis=0)
-                k += r
+        net = self.net_forces(carried)
         out = LcpResult(res.lam, a, res.gap, res.steps, res.solved)
         return out, self.states(e, res.lam, a), net
+
+
+def held_by_springs(sys_: ContactSystem) -> tuple[NDArray, NDArray, float]:
+    """The system with every free body held by a soft spring in its modes (:data:`SPRING`).
+
+    No balance equation is left: ``W + G G^T / k`` and ``rhs + G c / k`` on the forces
+    alone, ``k`` the spring's stiffness in the modes' units. A problem that always has a
+    solution; the springs carry ``G^T lambda - c``, what the contacts do not.
+    """
+    w, g, c = sys_.w, sys_.g, sys_.c
+    m = w.shape[0]
+    dw = float(np.mean(np.diag(w))) if m else 1.0
+    dg = float(np.mean(np.einsum("ij,ij->i", g, g))) if m else 0.0
+    soft = SPRING * (dg if dg > 0 else 1.0) / max(dw, 1e-300)
+    return w + g @ g.T / soft, sys_.rhs + g @ c / soft, soft
 
 
 def _saddle(

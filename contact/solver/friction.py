@@ -72,11 +72,6 @@ SHIFT = 1e-10
 #: Tresca solves of the fixed point (each with the radii of the last normal forces).
 TRESCA = 30
 
-#: Weight of the free bodies' balance in the line search's merit ``|F|^2``. It changes no
-#: Newton step and no solution; where no balance exists (a load past the friction the
-#: contacts can give) the search settles with the contact law met and the balance left
-#: unmet, so that what is left unbalanced is the load the contacts could not carry.
-BALANCE_WEIGHT = 1.0
 
 OPEN, STICK, SLIP = 0, 1, 2
 
@@ -101,8 +96,6 @@ class FrictionResult:
         ``max |F|`` over the force scale at the end.
     solved : bool
         The residual reached ``tol``.
-    unbalanced : ndarray, shape (r,)
-        ``G^T lam - c`` at the end: the free bodies' load the contacts did not carry.
     """
 
     lam: NDArray[np.float64]
@@ -112,7 +105,6 @@ class FrictionResult:
     iterations: int
     residual: float
     solved: bool
-    unbalanced: NDArray[np.float64]
 
 
 class _Problem:
@@ -121,6 +113,7 @@ class _Problem:
     def __init__(self, w, g, rhs, c, mu, tangent) -> None:
         self.fixed: NDArray | None = None  # Tresca: each frictional contact's radius
         self.w, self.g, self.rhs, self.c = w, g, rhs, c
+        self.wg = np.hstack([w, g])  # the rows' values per unknown: d y / d(lam, a)
         self.k = mu.size
         self.m, self.r = g.shape
         self.fr = np.flatnonzero(tangent[:, 0] >= 0)  # contacts with friction
@@ -173,7 +166,7 @@ class _Problem:
         ft = np.where(stick[:, None], self.ct[:, None] * y[t], lt - radius[:, None] * q)
         f[t.ravel()] = ft.ravel()
         # rows of the system that belong to no contact's normal or tangent: none
-        f[self.m :] = BALANCE_WEIGHT * (self.g.T @ lam - self.c)
+        f[self.m :] = self.g.T @ lam - self.c
         return f, {
             "closed": closed,
             "stick": stick,
@@ -196,7 +189,7 @@ class _Problem:
         k, m, r, fr, t = self.k, self.m, self.r, self.fr, self.t
         n = m + r
         j = np.zeros((n, n))
-        wg = np.hstack([self.w, self.g])  # (m, n): d y / d(lam, a)
+        wg = self.wg  # (m, n): d y / d(lam, a)
         closed = s["closed"]
         rows = np.arange(k)
         j[rows[closed], :] = self.cp[closed, None] * wg[rows[closed]]
@@ -234,16 +227,13 @@ class _Problem:
                         j[ts[:, a_], ts[:, b_]] += eye[:, a_, b_]
                 j[ts[:, 0], ps] -= mu * qs[:, 0]
                 j[ts[:, 1], ps] -= mu * qs[:, 1]
-        j[m:, :m] = BALANCE_WEIGHT * self.g.T
+        j[m:, :m] = self.g.T
         return j
 
 
-def _size(f: NDArray, m: int) -> float:
-    """``max |F|`` with the balance rows unweighted (:data:`BALANCE_WEIGHT`): forces (N)."""
-    return max(
-        float(np.abs(f[:m]).max(initial=0.0)),
-        float(np.abs(f[m:]).max(initial=0.0)) / BALANCE_WEIGHT,
-    )
+def _relative(f: NDArray, lam: NDArray, scale: float) -> float:
+    """``max |F|`` (a force) over the larger of ``scale`` and the largest force."""
+    return float(np.abs(f).max(initial=0.0)) / max(scale, float(np.abs(lam).max(initial=0.0)))
 
 
 def _reduced_step(j: NDArray, f: NDArray, inactive: NDArray[np.bool_]) -> NDArray:
@@ -354,7 +344,7 @@ def _newton(w, g, rhs, c, mu, tangent, start, load_scale, tol, max_steps) -> Fri
 
     def measure(lam: NDArray, a: NDArray) -> float:
         f, _ = base.residual(lam, a)
-        return _size(f, m) / max(scale, float(np.abs(lam).max(initial=0.0)))
+        return _relative(f, lam, scale)
 
     best = (measure(lam, a), lam, a)
     steps = 0
@@ -396,7 +386,6 @@ def _newton(w, g, rhs, c, mu, tangent, start, load_scale, tol, max_steps) -> Fri
         iterations=steps,
         residual=res,
         solved=res <= tol,
-        unbalanced=g.T @ lam - c,
     )
 
 
@@ -460,13 +449,10 @@ def _tresca(base: _Problem, best, measure, tol, budget: int):
 
         def gap(lam: NDArray, a: NDArray, prob=tres) -> float:
             f, _ = prob.residual(lam, a)
-            return _size(f, base.m) / max(float(np.abs(lam).max(initial=0.0)), 1e-300)
+            return _relative(f, lam, 1e-300)
 
-        for factor, search in STRATEGIES:
-            x, used = _descend(base.scaled(factor, fixed), lam, a, gap, tol, search, budget - n)
-            n += used
-            if x[0] <= tol or n >= budget:
-                break
+        x, used = _strategies(base, fixed, lam, a, gap, tol, budget - n)
+        n += used
         lam, a = x[1], x[2]
         now = np.maximum(lam[:k], 0.0)
         settled = np.abs(now - normal).max(initial=0.0) <= tol * max(now.max(initial=0.0), 1e-300)
@@ -474,8 +460,15 @@ def _tresca(base: _Problem, best, measure, tol, budget: int):
         if settled or n >= budget:
             break
     # Coulomb's law from the settled Tresca solution
+    x, used = _strategies(base, None, lam, a, measure, tol, budget - n)
+    return x, n + used
+
+
+def _strategies(base: _Problem, fixed, lam, a, measure, tol, budget: int):
+    """:data:`STRATEGIES` in turn from ``(lam, a)`` until one reaches ``tol``: its result."""
+    n = 0
     for factor, search in STRATEGIES:
-        x, used = _descend(base.scaled(factor), lam, a, measure, tol, search, budget - n)
+        x, used = _descend(base.scaled(factor, fixed), lam, a, measure, tol, search, budget - n)
         n += used
         if x[0] <= tol or n >= budget:
             break

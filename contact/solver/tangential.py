@@ -118,7 +118,6 @@ class Friction:
                     key = (i, int(anchors.node[k]))
                     self.anchor[key] = (anchors.facet[k], anchors.weights[k], anchors.point[k])
         self.iterations = 0
-        self.last: FrictionResult | None = None
         self.system: tuple | None = None
 
     # ------------------------------------------------------------------ anchors
@@ -271,7 +270,6 @@ class Friction:
             if attempt or np.array_equal(self.mu, chosen):
                 self.mu = chosen
                 break
-        self.last = res
         self.system = (sys_, mu, tangent)
         return res, space.states(e, res.lam, res.a), e, full, tangent
 
