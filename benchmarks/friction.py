@@ -5,7 +5,7 @@ Two studies, run together by ``python -m benchmarks friction [--quick]``:
 1. *cost*: a frame with friction against the same frame without it, each the fastest of
    :data:`REPEAT` runs taken in turn in one run (goal: at most :data:`GOAL_RATIO` times).
    Scenes: the hand cup (:func:`benchmarks.scenes.hand_cup`, every pair at ``mu =``
-   :data:`MU`), the two-pad pinch (``examples/pinch.toml``: its frames in order, the last
+   :data:`MU`), the two-pad pinch (``examples/pads.toml``: its frames in order, the last
    one timed; frictionless, the ball is held by a frictionless table 0.1 mm into its
    bottom instead) and the README example (``examples/grasp.toml`` with ``[hand]
    friction = 0.5``, every frame in order, as ``python -m contact.grasp`` solves it). The
@@ -236,7 +236,7 @@ def _pinch_rows(quick: bool) -> list[dict]:
     from contact.scene.model import PlaneScene
     from contact.scene.read import load_scene
 
-    sc = load_scene(EXAMPLES / "pinch.toml")
+    sc = load_scene(EXAMPLES / "pads.toml")
     bottom = sc.ball.center[2] - sc.ball.radius + TABLE_INTO
     table = PlaneScene("table", (0.0, 0.0, bottom), (0.0, 0.0, 1.0), friction=0.0)
     pads = tuple(dataclasses.replace(p, friction=0.0) for p in sc.planes)

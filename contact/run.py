@@ -42,6 +42,7 @@ from .hand.keyframes import Keyframes
 from .hand.objects import ObjectAssociation
 from .hand.posing import HandPoser, Pose
 from .hand.shipped import load_hand
+from .scene.model import PlaneScene
 from .scene.spec import Scene
 from .solver.anchors import Anchors
 from .solver.body import ElasticBody
@@ -75,6 +76,9 @@ class GraspRun:
         Where each frictional contact stuck at the end of the last frame solved (its
         :attr:`FrameResult.anchors`), carried into the next :meth:`frame`; None before the
         first frame and without friction. Set it to None to start a history afresh.
+    positions : dict of str to ndarray
+        Each force-driven plane's translation (m, shape (3,)) where the last frame solved
+        left it: the next frame starts it there.
     """
 
     scene: Scene
@@ -85,6 +89,7 @@ class GraspRun:
     _hand_key: bytes = field(default=b"", init=False)
     _pose: Pose | None = field(default=None, init=False)
     anchors: Anchors | None = field(default=None, init=False)
+    positions: dict[str, NDArray[np.float64]] = field(default_factory=dict, init=False)
     _last_time: float | None = field(default=None, init=False, repr=False)
     _started: bool = field(default=False, init=False, repr=False)
 
@@ -272,6 +277,21 @@ class GraspRun:
                 tolerance * local[k] * 1e3,
             )
 
+    def restart(self, scene: Scene) -> GraspRun:
+        """A run of ``scene`` (this one with other forces) that starts its history afresh.
+
+        The bodies built so far (the ball's and the hand's factorisations, the last pose)
+        are shared: ``scene`` must differ from this run's only in its forces and loads.
+        """
+        out = GraspRun.__new__(GraspRun)
+        out.__dict__.update(self.__dict__)
+        out.scene = scene
+        out.anchors = None
+        out._last_time = None
+        out._started = False
+        out.positions = {}
+        return out
+
     # --- one frame -----------------------------------------------------------------
 
     def frame(
@@ -332,7 +352,7 @@ class GraspRun:
                 extra["auto_flexion"] = self.auto_flexed
             assert self._pose is not None
             extra["min_tet_quality"] = float(self._pose.min_quality)
-        planes = [Plane(p.point, p.normal, motion=p.offset(t), name=p.name) for p in sc.planes]
+        planes = [self._plane(p, t) for p in sc.planes]
         pairs = [ContactPair(ball, p, friction=sc.friction(p.name)) for p in planes] + pairs
         setup = time.perf_counter() - t0
         # steps 2 to 5
@@ -345,5 +365,25 @@ class GraspRun:
         )
         # carried as returned, converged or not: the history is what was solved
         self.anchors = result.anchors  # type: ignore[assignment]
+        driven = {p.name for p in sc.planes if p.driven}
+        for name in driven:
+            self.positions[name] = result.plane_positions[name]
+        planes = [pl.moved(self.positions[pl.name]) if pl.name in driven else pl for pl in planes]
         result.timings["setup"] = setup
         return result, extra, planes, bodies
+
+    def _plane(self, spec: PlaneScene, t: float) -> Plane:
+        """The plane at ``t``: moved by its offsets, or a force-driven one where it was left.
+
+        A force-driven plane whose force is 0 at ``t`` stays where it is.
+        """
+        if not spec.driven:
+            return Plane(spec.point, spec.normal, motion=spec.offset(t), name=spec.name)
+        force = spec.force_at(t)
+        return Plane(
+            spec.point,
+            spec.normal,
+            motion=self.positions.get(spec.name, np.zeros(3)),
+            name=spec.name,
+            force=force if force > 0 else None,
+        )

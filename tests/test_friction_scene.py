@@ -424,8 +424,8 @@ def test_docs_say_the_history_rule() -> None:
     assert "`solver.substeps = n` solves each frame after the first in `n` equal steps" in text
 
 
-def test_pinch_example_reads() -> None:
-    scene = load_scene(ROOT / "examples" / "pinch.toml")
+def test_pads_example_reads() -> None:
+    scene = load_scene(ROOT / "examples" / "pads.toml")
     assert scene.hand is None and len(scene.planes) == 2
     assert [scene.friction(p.name) for p in scene.planes] == [0.5, 0.5]
     assert scene.gravity is not None and scene.frictional
@@ -433,3 +433,4 @@ def test_pinch_example_reads() -> None:
     assert sum(a * b for a, b in zip(n0, n1, strict=True)) == -1.0  # facing each other
     assert sum(a * b for a, b in zip(n0, scene.gravity, strict=True)) == 0.0  # along the pads
     assert scene.output.pictures
+    assert all(p.driven for p in scene.planes)

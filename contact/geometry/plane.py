@@ -38,12 +38,16 @@ class Plane:
         presses moves, a table does not.
     name : str
         For messages and results.
+    force : float, optional
+        A force-driven plane: it moves along its normal, from ``motion``, until the
+        bodies push it back with this force (N, > 0). None: it stays at ``motion``.
     """
 
     point: NDArray[np.float64]
     normal: NDArray[np.float64]
     motion: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
     name: str = "plane"
+    force: float | None = None
 
     def __post_init__(self) -> None:
         n = _vec3(self.normal, f"{self.name}: normal")
@@ -53,10 +57,13 @@ class Plane:
         object.__setattr__(self, "normal", n / length)
         object.__setattr__(self, "point", _vec3(self.point, f"{self.name}: point"))
         object.__setattr__(self, "motion", _vec3(self.motion, f"{self.name}: motion"))
+        f = self.force
+        if f is not None and not (isinstance(f, (int, float)) and np.isfinite(f) and f > 0):
+            raise ContactError(f"{self.name}: force must be a finite number > 0, got {f!r}")
 
     def moved(self, motion: ArrayLike) -> Plane:
         """The same plane with another rigid translation."""
-        return Plane(self.point, self.normal, np.asarray(motion, float), self.name)
+        return Plane(self.point, self.normal, np.asarray(motion, float), self.name, self.force)
 
     def signed_distance(self, x: ArrayLike) -> NDArray[np.float64]:
         """Distance of points ``(n, 3)`` from the moved plane, negative behind it."""

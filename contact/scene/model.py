@@ -48,6 +48,8 @@ LINEAR_SOLVERS = ("auto", *BACKENDS)
 CONTACT_KEYS = tuple(f.name for f in fields(ContactSettings) if f.name != "support_limits")
 #: Body names a plane may not take.
 RESERVED = ("ball", "hand")
+#: The largest force (N) a force-driven plane or finger may be given: far above any grip.
+MAX_FORCE = 1.0e4
 
 
 @dataclass(frozen=True)
@@ -202,6 +204,10 @@ class PlaneScene:
         piecewise linear between keys and constant outside; empty: the plane is fixed.
     friction : float or None
         Coulomb's coefficient of the plane against any body, >= 0; None: the ball's.
+    force : tuple of (float, float)
+        ``(time, N)`` keys, times increasing, forces >= 0 (N): a force-driven plane, which
+        moves along its normal until the bodies push it back with that force (piecewise
+        linear between keys, constant outside); empty: driven by ``offsets``.
     """
 
     name: str
@@ -209,11 +215,23 @@ class PlaneScene:
     normal: tuple[float, float, float]
     offsets: tuple[tuple[float, tuple[float, float, float]], ...] = ()
     friction: float | None = None
+    force: tuple[tuple[float, float], ...] = ()
 
     def __post_init__(self) -> None:
         check_friction("friction", self.friction)
         if self.name in RESERVED:
             raise invalid("name", self.name, f"reserved for a body ({', '.join(RESERVED)})")
+        if self.force and self.offsets:
+            raise invalid(
+                "force", [list(k) for k in self.force],
+                "a plane is driven by offsets or by a force, not both",
+            )  # fmt: skip
+        for j, (t, n) in enumerate(self.force):
+            if not (np.isfinite(n) and 0.0 <= n <= MAX_FORCE):
+                raise invalid(f"force[{j}]", [t, n], f"the force must lie in [0, {MAX_FORCE:g}] N")
+            if j and not t > self.force[j - 1][0]:
+                previous = self.force[j - 1][0]
+                raise invalid(f"force[{j}]", [t, n], f"times must increase (previous {previous:g})")
         for j in range(1, len(self.offsets)):
             t, d = self.offsets[j]
             if not t > self.offsets[j - 1][0]:
@@ -221,6 +239,18 @@ class PlaneScene:
                 raise invalid(
                     f"offsets[{j}]", [t, *d], f"times must increase (previous {previous:g})"
                 )
+
+    @property
+    def driven(self) -> bool:
+        """True for a force-driven plane."""
+        return bool(self.force)
+
+    def force_at(self, time: float) -> float:
+        """The force-driven plane's force (N) at ``time`` (0 for a plane driven by offsets)."""
+        if not self.force:
+            return 0.0
+        t = [k[0] for k in self.force]
+        return float(np.interp(time, t, [k[1] for k in self.force]))
 
     def offset(self, time: float) -> NDArray[np.float64]:
         """The plane's translation (m) at ``time``, shape (3,)."""

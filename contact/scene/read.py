@@ -137,7 +137,10 @@ def _read_planes(r: SceneReader, data: dict) -> tuple[PlaneScene, ...]:
     planes: list[PlaneScene] = []
     for i, p in enumerate(value):
         where = f"plane[{i}]"
-        r.table(p, where, required=("name", "point", "normal"), optional=("offsets", "friction"))
+        r.table(
+            p, where, required=("name", "point", "normal"),
+            optional=("offsets", "friction", "force"),
+        )  # fmt: skip
         name = r.string(p["name"], f"{where}.name")
         if any(q.name == name for q in planes):
             raise r.fail(f"{where}.name", name, "another plane has this name")
@@ -153,9 +156,15 @@ def _read_planes(r: SceneReader, data: dict) -> tuple[PlaneScene, ...]:
         for j, k in enumerate(raw):
             t, *d = r.vector(k, f"{where}.offsets[{j}]", 4)
             offsets.append((t, tuple(d)))
+        raw = p.get("force", [])
+        if not isinstance(raw, list):
+            raise r.fail(f"{where}.force", raw, "must be a list of [time, N]")
+        force = [tuple(r.vector(k, f"{where}.force[{j}]", 2)) for j, k in enumerate(raw)]
         normal = tuple(float(x) for x in n / norm)
         mu = r.number(p["friction"], f"{where}.friction") if "friction" in p else None
-        planes.append(r.build(where, PlaneScene, name, point, normal, tuple(offsets), mu))
+        planes.append(
+            r.build(where, PlaneScene, name, point, normal, tuple(offsets), mu, tuple(force))
+        )
     return tuple(planes)
 
 

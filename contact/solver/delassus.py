@@ -16,6 +16,10 @@ computed once by back-solves with the body's one factorisation and kept
 (:meth:`fem.StaticSolver.compliance`): a contact set that changes by ``k`` rows costs
 ``k`` back-solves per body.
 
+A force-driven plane (:attr:`contact.geometry.plane.Plane.force`) is one more column of
+``G``: a rigid body whose one mode is its translation along its normal, loaded by its
+force, so that its rows' forces sum to that force and its translation is found with them.
+
 Where the contacts cannot balance a free body's loads (a ball on a tilted frictionless
 table, or with nothing under it) the system has no solution; :meth:`ContactSpace.solve_held`
 then gives the contacts' answer with the body held by a soft spring, and the load that
@@ -107,11 +111,18 @@ class ContactSpace:
         Place free bodies by all six rigid modes, their rotations included (with
         friction, whose tangential rows hold them); otherwise by their placing modes
         (:attr:`fem.StaticSolver.placing_modes`).
+    planes : sequence of Plane
+        Force-driven planes: rigid bodies of one mode (a translation along the normal)
+        loaded by their force, placed with the free bodies (after them in ``a``); their
+        parts of the rows are ``e[plane.name]`` (:meth:`FrameState.matrices`).
     """
 
-    def __init__(self, bodies: Sequence[ElasticBody], rotations: bool = False) -> None:
+    def __init__(
+        self, bodies: Sequence[ElasticBody], rotations: bool = False, planes: Sequence = ()
+    ) -> None:
         self.bodies = list(bodies)
         self.rotations = rotations
+        self.planes = list(planes)
         self._u0: dict[str, NDArray[np.float64]] = {}
 
     def placing(self, body: ElasticBody) -> NDArray[np.float64]:
@@ -158,7 +169,6 @@ class ContactSpace:
         m = g0.size
         w = np.zeros((m, m))
         rhs = -np.asarray(g0, dtype=np.float64).copy()
-        g_cols: list[NDArray] = []
         balance: list[NDArray] = []
         free: list[ElasticBody] = []
         for body in self.bodies:
@@ -169,23 +179,28 @@ class ContactSpace:
                 rhs -= eb @ self.own_response(body)
             if s.free_body:
                 free.append(body)
-                phi = self.placing(body)
-                g_cols.append(eb @ phi if eb is not None else np.zeros((m, phi.shape[1])))
-                balance.append(-(phi.T @ body.loads))
+                balance.append(-(self.placing(body).T @ body.loads))
+        balance += [np.array([-float(pl.force)]) for pl in self.planes]
+        scales = [float(np.linalg.norm(b.loads)) for b in free]
         return ContactSystem(
             w=w,
-            g=np.hstack(g_cols) if g_cols else np.zeros((m, 0)),
+            g=self.system_modes(e, m),
             rhs=rhs,
             c=np.concatenate(balance) if balance else np.zeros(0),
-            free=tuple(b.name for b in free),
-            load_scale=max((float(np.linalg.norm(b.loads)) for b in free), default=0.0),
+            free=tuple(b.name for b in free) + tuple(pl.name for pl in self.planes),
+            load_scale=max(scales + [float(pl.force) for pl in self.planes], default=0.0),
         )
 
     def states(
         self, e: dict[str, sp.csr_matrix], lam: NDArray[np.float64], a: NDArray[np.float64]
     ) -> dict[str, BodyState]:
-        """Every body's state under contact forces ``lam`` and rigid-mode amplitudes ``a``."""
+        """Every body's state under contact forces ``lam`` and rigid-mode amplitudes ``a``.
+
+        With force-driven planes, the amplitudes are first taken least along the modes no
+        row sees (:meth:`gauged`).
+        """
         m = lam.size
+        a = self.gauged(e, m, a)
         states = {}
         k = 0
         for body in self.bodies:
@@ -198,7 +213,40 @@ class ContactSpace:
                 rigid[:r] = a[k : k + r]
                 k += r
             states[body.name] = self.state(body, forces, rigid)
+        for pl in self.planes:  # a force-driven plane's translation along its normal
+            s = a[k : k + 1]
+            k += 1
+            states[pl.name] = BodyState(pl.normal * float(s[0]), np.zeros(3), s.copy())
         return states
+
+    def gauged(self, e: dict[str, sp.csr_matrix], m: int, a: NDArray[np.float64]) -> NDArray:
+        """``a`` less its part along the modes that move no row (with force-driven planes).
+
+        A ball squeezed by two force-driven pads moves with them along their normals
+        without changing a gap: that motion is not determined by the contacts, and the
+        least one (the bodies and planes where the frame started) is taken.
+        """
+        if not self.planes or not a.size or not m:
+            return a
+        g = self.system_modes(e, m)
+        _, sv, vt = np.linalg.svd(g, full_matrices=True)
+        rank = int((sv > RANK_TOL * sv.max()).sum()) if sv.size and sv.max() > 0 else 0
+        null = vt[rank:]
+        return a - null.T @ (null @ a)
+
+    def system_modes(self, e: dict[str, sp.csr_matrix], m: int) -> NDArray[np.float64]:
+        """``G``: the rows' values of the free bodies' and force-driven planes' modes."""
+        cols = []
+        for body in self.bodies:
+            if body.solver.free_body:
+                phi = self.placing(body)
+                eb = e.get(body.name)
+                cols.append(eb @ phi if eb is not None else np.zeros((m, phi.shape[1])))
+        for pl in self.planes:
+            ep = e.get(pl.name)
+            col = ep @ pl.normal if ep is not None else np.zeros(m)
+            cols.append(np.asarray(col, dtype=np.float64).reshape(m, 1))
+        return np.hstack(cols) if cols else np.zeros((m, 0))
 
     def solve(
         self, e: dict[str, sp.csr_matrix], g0: NDArray[np.float64]

@@ -34,6 +34,7 @@ instead.
 from __future__ import annotations
 
 import copy
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -261,8 +262,12 @@ def _step(j: NDArray, f: NDArray) -> NDArray:
     size = max(float(np.linalg.norm(f)), 1e-300)
     for shift in (0.0, SHIFT * max(float(np.abs(j).max(initial=0.0)), 1e-300)):
         try:
-            lu = sla.lu_factor(j + shift * np.eye(j.shape[0]) if shift else j, check_finite=False)
-            d = sla.lu_solve(lu, -f, check_finite=False)
+            with warnings.catch_warnings():  # a singular J is looked at below
+                warnings.simplefilter("ignore", sla.LinAlgWarning)
+                lu = sla.lu_factor(
+                    j + shift * np.eye(j.shape[0]) if shift else j, check_finite=False
+                )
+                d = sla.lu_solve(lu, -f, check_finite=False)
         except (np.linalg.LinAlgError, ValueError):
             continue
         if (

@@ -90,5 +90,10 @@ def solve_frame(
                     "the seed loop takes no friction: set solver.algorithm = "
                     '"contact-space" or every friction to 0'
                 )
+            if frame.driven:
+                raise ContactError(
+                    "the seed loop takes no force-driven plane: set solver.algorithm = "
+                    '"contact-space"'
+                )
             return solve_seed(frame, dirichlet or frame.bodies[0].name)
         return solve_contact_space(frame, anchors)

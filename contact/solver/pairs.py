@@ -193,6 +193,8 @@ def measure(
     further than ``margin`` are skipped: the result is that of a search of every node.
     The others are searched on the master's whole surface (its bounding-volume
     hierarchy, refitted at the new coordinates: :mod:`contact.geometry.closestkernels`).
+    ``u`` holds each body's displacements by name and, under its own name, a force-driven
+    plane's translation ``(1, 3)`` from its ``motion``.
 
     Returns
     -------
@@ -207,6 +209,8 @@ def measure(
     if pair.rigid:
         plane: Plane = pair.master  # type: ignore[assignment]
         gap = plane.signed_distance(xs)
+        if plane.name in u:  # a force-driven plane moved by the solve, from its motion
+            gap -= float(np.ravel(u[plane.name])[:3] @ plane.normal)
         near = gap < margin
         k = int(near.sum())
         return Penetrations(

@@ -194,6 +194,9 @@ class FrameResult:
         ``tangential_force`` ``(N, 3)`` (N), ``contact_status`` ``(N,)`` (0 none or open,
         1 stick, 2 slip; a frictionless closed contact slips), ``cone_use`` ``(N,)``
         (``|t| / (mu n)``, 0 where frictionless); the largest over a node's contacts.
+    plane_positions : dict of str to ndarray
+        Each plane's translation at the end (m, shape (3,)): its motion, and for a
+        force-driven plane the distance the solve moved it along its normal.
     """
 
     converged: bool
@@ -215,6 +218,7 @@ class FrameResult:
     held: bool | None = None
     anchors: object | None = None
     contact_fields: dict[str, dict[str, NDArray]] = field(default_factory=dict)
+    plane_positions: dict[str, NDArray[np.float64]] = field(default_factory=dict)
 
     def total_contact_force(self, body: str) -> NDArray[np.float64]:
         """Sum of the contact forces on one body (N)."""

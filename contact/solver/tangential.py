@@ -387,5 +387,5 @@ def end_anchors(
         weights=weights,
         point=points,
         displacement={name: np.array(v, dtype=np.float64) for name, v in u.items()},
-        motion={pl.name: pl.motion.copy() for pl in frame.planes},
+        motion=frame.positions(),
     )
