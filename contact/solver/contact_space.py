@@ -70,7 +70,7 @@ def solve_contact_space(frame: FrameState, anchors: Anchors | None = None) -> Fr
     st = frame.settings
     contacts = frame.contacts
     friction = Friction(frame, anchors)
-    space = ContactSpace(frame.bodies, rotations=friction.active, planes=frame.driven)
+    space = ContactSpace(frame.bodies, rotations=friction.active, planes=frame.driven.planes)
     u = friction.start()
     # step 2 (first time): every node inside or near its master, as candidates
     rows, _, _ = contacts.new_rows(ContactRows(), u, touching=True, near=contactset.NEAR)
@@ -96,7 +96,7 @@ def solve_contact_space(frame: FrameState, anchors: Anchors | None = None) -> Fr
             break
         seen.add(key)
         t = time.perf_counter()
-        start = frame.pressed(rows, start)
+        start = frame.driven.pressed(rows, start)
         if friction.active:
             # steps 3 and 4 with Coulomb friction: normal and tangential rows at once
             fres, states, e, _, tangent = friction.solve(space, rows, start, tangential)
@@ -125,7 +125,7 @@ def solve_contact_space(frame: FrameState, anchors: Anchors | None = None) -> Fr
         opened = int((was & ~closed).sum())
         # step 5: every body's displacements under those forces (the solve's states)
         u = {b.name: states[b.name].u.reshape(-1, 3) for b in frame.bodies}
-        frame.moved(states)  # the force-driven planes, where the solve put them
+        frame.driven.moved(states)  # the force-driven planes, where the solve put them
         flat = np.concatenate([states[b.name].u for b in frame.bodies])
         change = float(np.abs(flat - prev).max())
         prev = flat

@@ -27,6 +27,7 @@ from .anchors import Anchors
 from .body import ElasticBody
 from .contactset import ContactSet, first_set
 from .delassus import BodyState
+from .driven import DrivenPlanes
 from .fields import FrictionState, contact_fields, held_verdict
 from .pairs import ContactPair, Penetrations, Survey, measure
 from .results import FrameResult, IterationRecord
@@ -83,9 +84,7 @@ class FrameState:
             if p.rigid and p.master not in self.planes:
                 raise ContactError(f"contact pair {p.name}: its plane is not in the scene")
         self.settings = settings
-        # force-driven planes: each one's translation from its motion, as last solved
-        self.driven = [pl for pl in self.planes if pl.force is not None]
-        self.shift = {pl.name: np.zeros((1, 3)) for pl in self.driven}
+        self.driven = DrivenPlanes(self.planes, self.pairs)
         self.local = {b.name: np.sqrt(np.maximum(b.node_areas, 1e-300)) for b in self.bodies}
         # broad-phase margin: one element
         self.margin = max(float(self.local[b.name].max()) for b in self.bodies)
@@ -124,7 +123,7 @@ class FrameState:
         u = {b.name: np.zeros((b.mesh.n_points, 3)) for b in self.bodies}
         if start is not None:
             u.update({k: np.asarray(v) for k, v in start.items() if k in u})
-        self.touch(u)
+        self.driven.touch(u)
         # candidate nodes of each body's zone, with how near they are (smaller first)
         zone: dict[str, list[tuple[NDArray[np.int64], NDArray[np.float64]]]] = {
             b.name: [] for b in self.bodies
@@ -180,53 +179,6 @@ class FrameState:
         self.timings["factorisation"] = sum(
             b.solver.factor_time - before[b.name] for b in self.bodies
         )
-
-    def touch(self, u: Mapping[str, NDArray]) -> None:
-        """Bring each force-driven plane that touches nothing to its nearest candidate node.
-
-        A plane driven by a force has one unknown, its translation along its normal; it is
-        found with the contact forces, which need rows against it: a plane short of the
-        bodies at ``u`` moves first to touch the nearest one.
-        """
-        for pl in self.driven:
-            gaps = [
-                measure(pair, u, np.inf)[0].gap
-                for pair in self.pairs
-                if pair.master is pl
-            ]
-            nearest = float(np.min(np.concatenate(gaps), initial=np.inf)) if gaps else np.inf
-            if np.isfinite(nearest) and nearest > 0:
-                self.shift[pl.name] = nearest * pl.normal[None, :]
-
-    def pressed(
-        self, rows: ContactRows, start: NDArray[np.float64] | None
-    ) -> NDArray[np.float64] | None:
-        """Starting forces with each force-driven plane pressing on its nearest row.
-
-        A plane none of whose rows pushes in ``start`` starts with its whole force on
-        its row of least gap: the solve then starts from the plane in contact (an open
-        row does not move the plane, and a plane no row holds has no position).
-        """
-        if not self.driven or not len(rows):
-            return start
-        out = np.zeros(len(rows)) if start is None else np.array(start, dtype=np.float64)
-        for pl in self.driven:
-            on = [i for i, p in enumerate(self.pairs) if p.master is pl]
-            mine = np.flatnonzero(np.isin(rows.pair, on))
-            if mine.size and not (out[mine] > 0).any():
-                out[mine[np.argmin(rows.g0[mine])]] = float(pl.force)  # type: ignore[arg-type]
-        return out
-
-    def moved(self, states: Mapping[str, BodyState]) -> None:
-        """The force-driven planes' translations from a solve's ``states``."""
-        for pl in self.driven:
-            if pl.name in states:
-                self.shift[pl.name] = states[pl.name].u.reshape(1, 3)
-
-    def positions(self) -> dict[str, NDArray[np.float64]]:
-        """Every plane's translation (m, shape (3,)) now: its motion, moved by the solve."""
-        zero = np.zeros((1, 3))
-        return {pl.name: pl.motion + self.shift.get(pl.name, zero)[0] for pl in self.planes}
 
     def force_scale(self, lam: NDArray[np.float64]) -> float:
         """The frame's force scale: the largest contact force met so far, or the loads.
@@ -318,8 +270,8 @@ class FrameState:
         """
         pair = self.pairs[i]
         names = [pair.slave.name] + ([] if pair.rigid else [pair.master.name])
-        if pair.master.name in self.shift:  # a force-driven plane, where it is now
-            u = {**u, pair.master.name: self.shift[pair.master.name]}
+        if pair.master.name in self.driven.shift:  # a force-driven plane, where it is now
+            u = self.driven.where(i, u)
             names.append(pair.master.name)
         kept = self._measured.get(i)
         if kept is not None:
@@ -353,15 +305,7 @@ class FrameState:
         closes them by ``n . d``).
         """
         out = rows.matrices(self.pairs, self.bodies)
-        m = len(rows)
-        for pl in self.driven:
-            on = [i for i, p in enumerate(self.pairs) if p.master is pl]
-            r = np.flatnonzero(np.isin(rows.pair, on)) if m else np.zeros(0, np.int64)
-            if r.size:
-                out[pl.name] = sp.csr_matrix(
-                    (-rows.normal[r].ravel(), (np.repeat(r, 3), np.tile(np.arange(3), r.size))),
-                    shape=(m, 3),
-                )
+        out.update(self.driven.matrices(rows))
         return out
 
     def supports(self, states: Mapping[str, BodyState]) -> dict[str, dict[str, NDArray]]:
@@ -528,7 +472,7 @@ class FrameState:
             held=held_verdict(self.bodies, converged, stop),
             anchors=anchors,
             contact_fields=fields,
-            plane_positions=self.positions(),
+            plane_positions=self.driven.positions(),
         )
 
 

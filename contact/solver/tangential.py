@@ -387,5 +387,5 @@ def end_anchors(
         weights=weights,
         point=points,
         displacement={name: np.array(v, dtype=np.float64) for name, v in u.items()},
-        motion=frame.positions(),
+        motion=frame.driven.positions(),
     )
