@@ -19,6 +19,13 @@ is solved, in time order, and only those asked for are written.
 
 ``--pose-only`` poses the hand and places the ball without solving
 (:mod:`contact.poseonly`).
+
+``--least-grip`` then searches the least scale of the scene's force-driven grip that holds
+the ball at every frame (:mod:`contact.leastgrip`; the normal run is its first trial), adds
+it to ``summary.json`` as ``least_grip`` and reports it in one more line; each trial gives
+a progress line on stderr. It needs every frame (no ``--frames``), something force-driven,
+gravity and friction: else exit status 2, nothing written. The exit status stays the
+frames' own.
 """
 
 from __future__ import annotations
@@ -34,11 +41,12 @@ from typing import TextIO
 
 import fem
 
-from .errors import ContactError
+from .errors import ContactError, SceneError
 from .hand.fingers import node_parts
+from .leastgrip import Trial, judge, least_grip
 from .output import BodyFrame, ResultsWriter, summary, versions
 from .poseonly import pose_only
-from .report import frame_line, summary_line
+from .report import frame_line, least_grip_line, summary_line, trial_line
 from .run import GraspRun
 from .scene.read import load_scene
 from .solver.body import ElasticBody
@@ -65,6 +73,7 @@ def run(
     frames: Sequence[int] | None = None,
     pictures: bool | None = None,
     quiet: bool = False,
+    least: bool = False,
 ) -> int:
     """Run a scene and write its results folder.
 
@@ -81,6 +90,8 @@ def run(
         Render pictures; default the scene's ``output.pictures``.
     quiet : bool
         No progress bar and no report on stdout.
+    least : bool
+        ``--least-grip``: then search the least grip that holds and add it to the summary.
 
     Returns
     -------
@@ -93,6 +104,14 @@ def run(
         print(f"error: {exc}", file=sys.stderr)
         return 2
     times = list(scene.frames)
+    if least:
+        try:
+            if frames is not None:
+                raise SceneError("--least-grip holds the ball at every frame: it takes no --frames")
+            scene.grip  # noqa: B018 (refuses what it cannot scale or hold)
+        except SceneError as exc:
+            print(f"error: {scene.path}: {exc}", file=sys.stderr)
+            return 2
     chosen = list(range(len(times))) if frames is None else list(frames)
     bad = [i for i in chosen if not 0 <= i < len(times)]
     if bad:
@@ -121,6 +140,8 @@ def run(
     bar = _progress(len(solved), quiet)
     status = 0
     entries = []
+    results: list[FrameResult] = []
+    found = None
     try:
         run_ = GraspRun(scene)
         hand_labels: dict = {}
@@ -141,6 +162,7 @@ def run(
                 )
 
             result, extra, planes, frame_bodies = run_.frame(t, tell)
+            results.append(result)
             if i not in chosen:
                 log.info("t = %g: replayed for the friction history (not written)", t)
                 bar.update(1)
@@ -170,7 +192,11 @@ def run(
             if not quiet:
                 bar.write(frame_line(entry, time.perf_counter() - t0), file=sys.stdout)
             bar.update(1)
+        if least:
+            found = _least_grip(run_, times, results, bar, quiet)
         writer.finish(scene.echo(), versions=versions())
+        if found is not None:
+            summary.add_least_grip(directory / "summary.json", found)
     except (ContactError, ValueError, fem.FemError) as exc:
         writer.abort()
         bar.close()
@@ -183,7 +209,24 @@ def run(
     bar.close()
     if not quiet:
         print(summary_line(entries, directory), flush=True)
+        if found is not None:
+            print(least_grip_line(found), flush=True)
     return status
+
+
+def _least_grip(
+    run: GraspRun, times: list[float], results: list[FrameResult], bar, quiet: bool
+) -> dict:
+    """The least-grip search from the normal run (its first trial); its summary item."""
+    first = judge(1.0, results, times, run.scene)
+    first = Trial(first.scale, first.holds, first.h, 0, first.time, first.reason)
+
+    def tell(n: int, tr: Trial) -> None:
+        log.info("least grip: trial %d at %.4gx: %s", n, tr.scale, tr.reason)
+        if not quiet:
+            bar.write(trial_line(n, tr.scale, tr.holds, tr.h, tr.reason), file=sys.stderr)
+
+    return least_grip(run, times, first=first, on_trial=tell).record()
 
 
 def _figures(run: GraspRun, result: FrameResult, bodies: Sequence[ElasticBody], t: float) -> dict:
@@ -268,6 +311,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         "distance to the ball) into DIR (default: output.directory with _pose appended)",
     )
     ap.add_argument(
+        "--least-grip",
+        action="store_true",
+        help="after the run, search the least scale of the scene's force-driven grip that "
+        "holds the ball at every frame (to 1 %%); write it to summary.json as least_grip "
+        "and print it (needs force-driven planes, gravity and friction)",
+    )
+    ap.add_argument(
         "--quiet",
         action="store_true",
         help="no progress bar, no report on stdout and no log messages but errors",
@@ -283,6 +333,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     shown = warnings.showwarning
     warnings.showwarning = _warn_line
     try:
+        if args.pose_only and args.least_grip:
+            print("error: --least-grip solves the scene: it takes no --pose-only", file=sys.stderr)
+            return 2
         if args.pose_only:
             return pose_only(args.scene, out=args.out, frames=args.frames, quiet=args.quiet)
         return run(
@@ -291,6 +344,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             frames=args.frames,
             pictures=False if args.no_pictures else None,
             quiet=args.quiet,
+            least=args.least_grip,
         )
     finally:
         warnings.showwarning = shown

@@ -17,6 +17,16 @@ contact-set updates and ``s`` the seconds of the frame. The closing line::
     frames=3 converged=3 held=- realistic=3 verdict=realistic results=results/finger_press
 
 The figures are the frame's ``summary.json`` record's, rounded to 3 digits.
+
+With ``--least-grip``, each trial of the search gives a progress line on stderr
+(:func:`trial_line`) and the outcome one line on stdout after the closing line::
+
+    least_grip=0.363 margin=2.75 forces_N=left_pad:0.363,right_pad:0.363
+    bracket=0.361..0.363 steps=3 solves=3 s=2.1 note='held at 0.3632x, not at 0.3608x'
+
+(on one line): ``least_grip`` is the least scale of the scene's grip that held (``none``
+where none did up to the bound), ``margin`` its inverse, ``forces_N`` each force-driven
+element's force at that scale, ``bracket`` the scales that did not and did hold.
 """
 
 from __future__ import annotations
@@ -28,7 +38,17 @@ from typing import Any
 
 from .hand.fingers import part_letters
 
-__all__ = ["FRAME_KEYS", "SUMMARY_KEYS", "frame_line", "parse_line", "pose_line", "summary_line"]
+__all__ = [
+    "FRAME_KEYS",
+    "LEAST_GRIP_KEYS",
+    "SUMMARY_KEYS",
+    "frame_line",
+    "least_grip_line",
+    "parse_line",
+    "pose_line",
+    "summary_line",
+    "trial_line",
+]
 
 #: The keys of a frame's line, in order.
 FRAME_KEYS = (
@@ -46,6 +66,10 @@ FRAME_KEYS = (
 )
 #: The keys of the closing line, in order.
 SUMMARY_KEYS = ("frames", "converged", "held", "realistic", "verdict", "results")
+#: The keys of the least grip's line, in order.
+LEAST_GRIP_KEYS = (
+    "least_grip", "margin", "forces_N", "bracket", "steps", "solves", "s", "note",
+)  # fmt: skip
 
 
 def _num(x: float) -> str:
@@ -128,6 +152,38 @@ def summary_line(entries: Sequence[Mapping[str, Any]], results: str | Path) -> s
         str(results),
     ]
     return " ".join(f"{k}={shlex.quote(str(v))}" for k, v in zip(SUMMARY_KEYS, values, strict=True))
+
+
+def _opt(x: float | None) -> str:
+    return "-" if x is None else _num(x)
+
+
+def least_grip_line(record: Mapping[str, Any]) -> str:
+    """The least grip's line, from its ``summary.json`` item (keys :data:`LEAST_GRIP_KEYS`)."""
+    forces = record.get("forces") or {}
+    lo, hi = record["bracket"]
+    values = [
+        "none" if record["scale"] is None else _num(record["scale"]),
+        _opt(record["margin"]),
+        ",".join(f"{k}:{_num(v)}" for k, v in forces.items()) or "-",
+        f"{_opt(lo)}..{_opt(hi)}",
+        record["steps"],
+        record["solves"],
+        f"{float(record['seconds']):.2f}",
+        record.get("note", ""),
+    ]
+    return " ".join(
+        f"{k}={shlex.quote(str(v))}" for k, v in zip(LEAST_GRIP_KEYS, values, strict=True)
+    )
+
+
+def trial_line(number: int, scale: float, holds: bool, h: float | None, reason: str) -> str:
+    """A least-grip trial's progress line: its scale, held or not, its measure, why not."""
+    head = "held" if holds else (reason.split(":")[0].strip() or "stopped")
+    return (
+        f"least_grip_trial={number} scale={_num(scale)} held={'yes' if holds else 'no'} "
+        f"h={_opt(h)} why={shlex.quote('-'.join(head.split()))}"
+    )
 
 
 def pose_line(

@@ -7,8 +7,10 @@ files and its timings. The grasp's own figures are computed here and passed in a
 record's extra items by the caller, which knows the bodies: the grip force
 (:func:`grip_force`), the forces, contact area and peak pressure per hand part
 (:func:`part_forces`) and the largest strain per body (:func:`max_strain`, against
-:data:`SMALL_STRAIN`). Everything but the ``"timings"`` keys (seconds) and the versions is
-a function of the input, so that two runs of one scene give equal summaries.
+:data:`SMALL_STRAIN`). With ``--least-grip`` the search's outcome is added at the top
+level under ``"least_grip"`` (:func:`add_least_grip`). Everything but the ``"timings"``
+keys and ``least_grip.seconds`` (seconds) and the versions is a function of the input, so
+that two runs of one scene give equal summaries.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ import os
 import sys
 from collections.abc import Mapping, Sequence
 from importlib import metadata
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -26,10 +29,13 @@ from numpy.typing import ArrayLike, NDArray
 
 import fem
 
+from ..errors import OutputError
 from ..solver.results import FrameResult, FrictionReport
+from .staging import write_atomic
 
 __all__ = [
     "SMALL_STRAIN",
+    "add_least_grip",
     "frame_entry",
     "friction_entry",
     "grip_force",
@@ -441,3 +447,29 @@ def summary_text(
         "timings": dict(timings),
     }
     return json.dumps(summary, indent=2, allow_nan=False) + "\n"
+
+
+def add_least_grip(path: str | Path, record: Mapping[str, Any]) -> None:
+    """Add the least-grip search's outcome to a written ``summary.json`` (top-level key).
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``summary.json`` a finished results folder holds.
+    record : mapping
+        ``scale``, ``forces`` (name -> N), ``margin``, ``steps``, ``solves``, ``seconds``,
+        ``bracket`` ``[lo, hi]`` and what else the search reports
+        (:meth:`contact.leastgrip.LeastGrip.record`); JSON-able.
+
+    Raises
+    ------
+    OutputError
+        When the file cannot be read or written back.
+    """
+    path = Path(path)
+    try:
+        summary = json.loads(path.read_text())
+        summary["least_grip"] = jsonable(record)
+        write_atomic(path, (json.dumps(summary, indent=2, allow_nan=False) + "\n").encode())
+    except (OSError, ValueError) as exc:
+        raise OutputError(f"cannot add the least grip to {path}: {exc}") from None

@@ -7,10 +7,11 @@ ball's (:meth:`Scene.friction`), the same both ways across one interface.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ..ball import BallSpec
+from ..errors import SceneError
 from ._checks import as_dict, check_friction, invalid
 from .model import Follow, HandScene, OutputScene, PlaneScene, SolverScene
 
@@ -74,6 +75,14 @@ class Scene:
                 f'the seed loop takes no friction ({key} = {mu:g}): use "contact-space" '
                 "or set every friction to 0",
             )
+        driven = [i for i, p in enumerate(self.planes) if p.driven]
+        if driven and self.solver.contact.algorithm == "seed":
+            raise invalid(
+                "solver.algorithm",
+                "seed",
+                f"the seed loop takes no force-driven plane (plane[{driven[0]}].force): "
+                'use "contact-space"',
+            )
 
     def interfaces(self) -> list[tuple[str, str, float]]:
         """Each body the ball can touch, with the key path that gives its coefficient.
@@ -121,6 +130,55 @@ class Scene:
             if name == body:
                 return float(mu)
         raise KeyError(f"the scene has no hand or plane {body!r}")
+
+    @property
+    def grip(self) -> dict[str, float]:
+        """Each force-driven element's own peak force (N), by name: what ``--least-grip`` scales.
+
+        Raises
+        ------
+        SceneError
+            When the scene has nothing force-driven to scale, nothing to hold (no gravity),
+            or no friction to hold it with.
+        """
+        peaks = {p.name: max(n for _, n in p.force) for p in self.planes if p.driven}
+        if not peaks:
+            raise SceneError(
+                "--least-grip: the scene has nothing force-driven to scale "
+                "(give a [[plane]] force = [[t, N], ...] instead of offsets)"
+            )
+        if self.gravity is None or not any(self.gravity):
+            raise SceneError(
+                "--least-grip: nothing to hold: the free ball has no load (set scene.gravity)"
+            )
+        if not self.frictional:
+            raise SceneError(
+                "--least-grip: the scene has no friction: nothing holds the ball by its grip "
+                "(set ball.friction, hand.friction or a plane's friction)"
+            )
+        return peaks
+
+    def grip_scaled(self, s: float) -> Scene:
+        """A copy with every force-driven element's force table times ``s`` (> 0).
+
+        Elements driven by positions (offsets, angles, press depths) are unchanged.
+
+        Raises
+        ------
+        SceneError
+            As :attr:`grip` (nothing to scale or hold); a scaled force past the largest
+            allowed names its plane.
+        """
+        self.grip  # noqa: B018 (the checks)
+        if not (s > 0 and s < float("inf")):
+            raise SceneError(f"--least-grip: the grip scale {s!r} must be a finite number > 0")
+        planes = []
+        for i, p in enumerate(self.planes):
+            try:
+                planes.append(replace(p, force=tuple((t, n * s) for t, n in p.force)))
+            except SceneError as exc:
+                raise SceneError(f"plane[{i}] ({p.name}) scaled by {s:g}: {exc}") from None
+        return replace(self, planes=tuple(planes))
 
     def echo(self) -> dict:
         """The whole scene with its defaults filled in, JSON-serialisable, in the file's layout.
