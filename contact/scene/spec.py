@@ -233,6 +233,7 @@ class Scene:
                     "point": list(p.point),
                     "normal": list(p.normal),
                     "offsets": [[t, *d] for t, d in p.offsets],
+                    "force": [list(k) for k in p.force],
                     "friction": p.friction,
                 }
                 for p in self.planes
