@@ -38,8 +38,8 @@ from .errors import ContactError, InputError
 from .geometry.surfacequery import TriangleSurface, surface_of_mesh
 from .hand.fingers import fingertips, node_parts
 from .hand.posing import Pose
+from .output.plainjson import jsonable
 from .output.staging import check_target, make_staging, swap_into_place, write_atomic
-from .output.summary import jsonable
 from .output.vtufields import write_pvd
 from .report import pose_line
 from .run import GraspRun

@@ -8,6 +8,7 @@ hold a ball by exactly ``2 mu N`` against its weight.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -181,3 +182,19 @@ def test_seed_loop_refuses_force_planes(tmp_path: Path, capsys) -> None:
     assert main([str(path), "--quiet"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "force" in err[0] and "contact-space" in err[0]
+
+
+def test_summary_says_which_way_and_how_much_slips(tmp_path: Path) -> None:
+    mu, n = 0.5, 0.15  # 2 mu N = 0.15 N against a weight of about 0.35 N
+    pad = f"force = [[0.0, {n}]]\nfriction = {mu}"
+    path = _pads(tmp_path, pad, pad)
+    weight = _weight(GraspRun(load_scene(path)))
+    assert main([str(path), "--quiet"]) == 1
+    frame = json.loads((tmp_path / "results" / "summary.json").read_text())["frames"][0]
+    assert frame["held"] is False
+    slip = frame["slip"]
+    assert slip["direction"] == pytest.approx([0.0, 0.0, -1.0], abs=1e-3)
+    assert slip["available"] == pytest.approx(2 * mu * n, rel=1e-3)
+    assert slip["not_carried"] == pytest.approx(weight - 2 * mu * n, rel=1e-2)
+    assert slip["largest_increment"] is not None
+    assert frame["plane_positions"]["left"][0] > 0 > frame["plane_positions"]["right"][0]

@@ -89,7 +89,8 @@ def test_grip_force_and_the_hand_parts_in_the_summary(finger_press):
         parts = entry["fingers"]
         assert list(parts) == PARTS
         for rec in parts.values():
-            assert set(rec) == {"normal", "tangential", "contact_area", "peak_pressure"}
+            keys = {"normal", "tangential", "contact_area", "peak_pressure", "max_cone_use"}
+            assert set(rec) == keys
             assert all(v >= 0 for v in rec.values())
         # only the index touches; the parts add up to the grip (the hand is the slave)
         total = sum(p["normal"] for p in parts.values())

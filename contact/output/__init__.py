@@ -14,10 +14,11 @@ from .pictures import (
     render_pictures,
     write_gif_atomically,
 )
+from .plainjson import jsonable, versions
 from .plots import convergence_png, forces_png
 from .staging import check_target, make_staging, swap_into_place, write_atomic
 from .status import CONTACT_FIELDS, StatusMarkers, contact_point_data, status_markers
-from .summary import frame_entry, friction_entry, jsonable, summary_text, verdict, versions
+from .summary import frame_entry, friction_entry, summary_text, verdict
 from .vtufields import UNITS, add_field_data, units_name, write_body_vtu, write_pvd
 from .writer import STRESS_COMPONENTS, BodyFrame, ResultsWriter
 

@@ -1,4 +1,4 @@
-"""What ``summary.json`` says: a frame's verdict and record, the package versions, the JSON.
+"""What ``summary.json`` says: a frame's verdict and record, the whole file's JSON.
 
 A frame's record (:func:`frame_entry`) holds its time, verdict, forces (contact, obstacle,
 bone), contacts per pair, whether its free bodies are held, its Coulomb friction figures
@@ -16,11 +16,7 @@ that two runs of one scene give equal summaries.
 from __future__ import annotations
 
 import json
-import math
-import os
-import sys
 from collections.abc import Mapping, Sequence
-from importlib import metadata
 from pathlib import Path
 from typing import Any
 
@@ -31,6 +27,7 @@ import fem
 
 from ..errors import OutputError
 from ..solver.results import FrameResult, FrictionReport
+from .plainjson import jsonable
 from .staging import write_atomic
 
 __all__ = [
@@ -39,32 +36,15 @@ __all__ = [
     "frame_entry",
     "friction_entry",
     "grip_force",
-    "jsonable",
     "max_strain",
     "part_forces",
     "summary_text",
     "verdict",
-    "versions",
 ]
 
 #: The largest principal strain that small-strain linear elasticity describes well: beyond
 #: it the model's forces and stresses are an extrapolation, and the run warns.
 SMALL_STRAIN = 0.10
-
-#: Distributions whose versions :func:`versions` reports (key -> distribution name).
-_DISTRIBUTIONS = {
-    "numpy": "numpy",
-    "scipy": "scipy",
-    "meshio": "meshio",
-    "pyvista": "pyvista",
-    "vtk": "vtk",
-    "matplotlib": "matplotlib",
-    "pillow": "pillow",
-    "pytetwild": "pytetwild",
-    "libigl": "libigl",
-    "pypardiso": "pypardiso",
-    "grasp-contact": "grasp-contact",
-}
 
 
 def verdict(result: FrameResult) -> dict[str, Any]:
@@ -146,15 +126,19 @@ def part_forces(
         Part name -> ``normal`` (sum of the nodal normal force magnitudes, N),
         ``tangential`` (sum of the nodal tangential force magnitudes, N),
         ``contact_area`` (sum of the tributary areas of the nodes with a normal force,
-        m^2) and ``peak_pressure`` (largest nodal normal force over tributary area, Pa).
+        m^2), ``peak_pressure`` (largest nodal normal force over tributary area, Pa) and
+        ``max_cone_use`` (largest ``|t| / (mu n)`` of its contacts, 0 without friction).
     """
     n = len(parts)
     a = np.asarray(areas, dtype=np.float64)
     fn = np.zeros(n)
     ft = np.zeros(n)
+    cone = np.zeros(n)
     if fields is not None:
         fn = np.asarray(fields["normal_force"], dtype=np.float64)
         ft = np.linalg.norm(np.asarray(fields["tangential_force"], dtype=np.float64), axis=1)
+        if "cone_use" in fields:
+            cone = np.asarray(fields["cone_use"], dtype=np.float64)
     touch = (fn > 0.0) & (a > 0.0)
     pressure = np.zeros(n)
     pressure[touch] = fn[touch] / a[touch]
@@ -166,6 +150,7 @@ def part_forces(
             "tangential": float(ft[own].sum()),
             "contact_area": float(a[own & touch].sum()),
             "peak_pressure": float(pressure[own].max(initial=0.0)),
+            "max_cone_use": float(cone[own].max(initial=0.0)),
         }
     return out
 
@@ -192,60 +177,6 @@ def max_strain(
     eps = fem.gauss_strain(mesh, np.ravel(u), bbar=bbar, nodal_pressure=nodal_pressure)
     peaks = [np.abs(np.linalg.eigvalsh(e.reshape(-1, 3, 3))).max(initial=0.0) for e in eps.values()]
     return float(max(peaks, default=0.0))
-
-
-def versions() -> dict[str, str]:
-    """Versions of Python and of the packages the results depend on.
-
-    Returns
-    -------
-    dict of str to str
-        ``python`` and each distribution (``"not installed"`` when missing).
-    """
-    out = {"python": sys.version.split()[0]}
-    for key, dist in _DISTRIBUTIONS.items():
-        try:
-            out[key] = metadata.version(dist)
-        except metadata.PackageNotFoundError:
-            out[key] = "not installed"
-    return out
-
-
-def jsonable(value: Any) -> Any:
-    """``value`` as plain JSON types (arrays to lists, non-finite floats to None).
-
-    Parameters
-    ----------
-    value : any
-        Mappings, sequences, sets (sorted by ``repr``), numpy arrays and scalars, paths,
-        dataclasses; anything else becomes its ``str``.
-
-    Returns
-    -------
-    any
-        Dicts with string keys, lists, bool, int, float, str or None.
-    """
-    if isinstance(value, Mapping):
-        return {str(k): jsonable(v) for k, v in value.items()}
-    if isinstance(value, np.ndarray):
-        return jsonable(value.tolist())
-    if isinstance(value, (list, tuple, set, frozenset)):
-        items = sorted(value, key=repr) if isinstance(value, (set, frozenset)) else value
-        return [jsonable(v) for v in items]
-    if isinstance(value, (bool, np.bool_)):
-        return bool(value)
-    if isinstance(value, (int, np.integer)):
-        return int(value)
-    if isinstance(value, (float, np.floating)):
-        v = float(value) + 0.0  # no -0.0
-        return v if math.isfinite(v) else None
-    if value is None or isinstance(value, str):
-        return value
-    if isinstance(value, os.PathLike):
-        return os.fspath(value)
-    if hasattr(value, "__dataclass_fields__"):
-        return jsonable({k: getattr(value, k) for k in value.__dataclass_fields__})
-    return str(value)
 
 
 def _vector(v: ArrayLike) -> dict[str, Any]:
@@ -312,6 +243,24 @@ def _bone_forces(result: FrameResult) -> dict[str, dict[str, Any]]:
         for g in sorted(result.support_forces[body]):
             key = g if counts[g] == 1 else f"{body}/{g}"
             out[key] = {"body": body, **_vector(result.support_forces[body][g])}
+    return out
+
+
+def _slip(result: FrameResult) -> dict[str, Any] | None:
+    """A frictional frame's slip: the largest slip increment (m) and, not held, which way.
+
+    ``direction``, ``not_carried`` and ``available`` (N) where friction did not hold a
+    free body (:attr:`FrameResult.slip`), else None; ``largest_increment`` the largest
+    slip of a contact in the frame. None without friction.
+    """
+    if result.friction is None and result.slip is None:
+        return None
+    out: dict[str, Any] = {"direction": None, "not_carried": None, "available": None}
+    if result.slip is not None:
+        out.update({k: result.slip[k] for k in ("direction", "not_carried", "available")})
+    out["largest_increment"] = (
+        None if result.friction is None else float(result.friction.max_slip)
+    )
     return out
 
 
@@ -387,6 +336,11 @@ def frame_entry(
         },
         "contacts": {"total": int(sum(per_pair.values())), "per_pair": per_pair},
         "held": None if result.held is None else bool(result.held),
+        "slip": _slip(result),
+        "plane_positions": {
+            p: [float(x) for x in result.plane_positions[p]]
+            for p in sorted(result.plane_positions)
+        },
         "friction": friction_entry(result.friction),
         "max_von_mises": dict(max_von_mises),
         "history": _history(result),

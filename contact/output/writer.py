@@ -65,11 +65,11 @@ from .pictures import (
     render_pictures,
     write_gif_atomically,
 )
+from .plainjson import versions as _versions  # finish() has a parameter of this name
 from .plots import convergence_png, forces_png
 from .staging import check_target, make_staging, swap_into_place, write_atomic
 from .status import contact_point_data, status_markers
 from .summary import frame_entry, summary_text
-from .summary import versions as _versions  # finish() has a parameter of this name
 from .vtufields import STRESS_COMPONENTS, write_body_vtu, write_pvd
 
 __all__ = ["STRESS_COMPONENTS", "BodyFrame", "ResultsWriter"]

@@ -89,6 +89,7 @@ def solve_contact_space(frame: FrameState, anchors: Anchors | None = None) -> Fr
     last_u = u
     last_moves: dict[str, NDArray[np.float64]] = {}
     unbalanced = ""
+    slip = None
     for it in range(1, st.max_iterations + 1):
         key = set_key(rows)
         if key in seen:
@@ -208,7 +209,8 @@ def solve_contact_space(frame: FrameState, anchors: Anchors | None = None) -> Fr
         )
         if not settled:
             if fres is not None:
-                stop = unheld(frame, space, friction, rows) or (
+                slip = unheld(frame, space, friction, rows)
+                stop = slip.reason if slip is not None else (
                     f"friction did not settle in {steps} Newton steps "
                     f"(residual {fres.residual:.2g})"
                 )
@@ -246,6 +248,7 @@ def solve_contact_space(frame: FrameState, anchors: Anchors | None = None) -> Fr
         states=states,
         friction=state,
         anchors=ends,
+        slip=None if slip is None else slip.record(),
     )
 
 

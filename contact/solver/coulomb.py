@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -12,7 +14,7 @@ from .results import FrictionReport
 from .rows import ContactRows
 from .tangential import Friction, tangent_basis
 
-__all__ = ["friction_state", "unheld"]
+__all__ = ["Slip", "friction_state", "unheld"]
 
 #: A free body is not held where a soft spring in its rigid modes must carry more than
 #: this fraction of its loads or of its friction (held, it carries about the spring's
@@ -85,8 +87,49 @@ def friction_state(
     )
 
 
-def unheld(frame, space: ContactSpace, friction: Friction, rows: ContactRows) -> str | None:
-    """``"not held: ..."`` where the last solve found no balance for a free body, else None.
+@dataclass(frozen=True)
+class Slip:
+    """A free body that friction does not hold: which way it slips and by how much load.
+
+    Attributes
+    ----------
+    body : str
+        The body.
+    direction : ndarray, shape (3,)
+        The unit direction of the load its contacts leave: the way it slips.
+    not_carried : float
+        That load (N).
+    available : float
+        The friction its contacts had, ``sum mu N`` (N).
+    """
+
+    body: str
+    direction: NDArray[np.float64]
+    not_carried: float
+    available: float
+
+    @property
+    def reason(self) -> str:
+        """The frame's stop reason, ``"not held: <body> slips along (...): ..."``."""
+        d = self.direction
+        return (
+            f"not held: {self.body} slips along ({d[0]:.3f}, {d[1]:.3f}, {d[2]:.3f}): "
+            f"{self.not_carried:.4g} N of its load is not carried by its contacts (friction "
+            f"available sum mu N = {self.available:.4g} N)"
+        )
+
+    def record(self) -> dict:
+        """As plain JSON types."""
+        return {
+            "body": self.body,
+            "direction": [float(x) for x in self.direction],
+            "not_carried": float(self.not_carried),
+            "available": float(self.available),
+        }
+
+
+def unheld(frame, space: ContactSpace, friction: Friction, rows: ContactRows) -> Slip | None:
+    """The slip of a free body the last solve found no balance for, else None.
 
     Called when the frictional solve did not settle. The same contacts are solved with each
     free body held by a soft spring in its rigid modes (`held_by_springs`), a problem that
@@ -104,7 +147,7 @@ def unheld(frame, space: ContactSpace, friction: Friction, rows: ContactRows) ->
         w, np.zeros((w.shape[0], 0)), rhs, np.zeros(0), mu=mu, tangent=tangent
     )
     net = space.net_forces(g.T @ res.lam - c)  # what the springs hold
-    worst: tuple[float, str] | None = None
+    worst: Slip | None = None
     for body in frame.bodies:
         if body.name not in net:
             continue
@@ -118,12 +161,8 @@ def unheld(frame, space: ContactSpace, friction: Friction, rows: ContactRows) ->
         load = float(np.linalg.norm(body.loads.reshape(-1, 3).sum(axis=0)))
         if size <= UNBALANCED * max(load, capacity, 1e-300):
             continue
-        way = f / size  # the net force the contacts leave: the way it slips
-        text = (
-            f"not held: {body.name} slips along ({way[0]:.3f}, {way[1]:.3f}, {way[2]:.3f}): "
-            f"{size:.4g} N of its load is not carried by its contacts (friction available "
-            f"sum mu N = {capacity:.4g} N)"
-        )
-        if worst is None or size > worst[0]:
-            worst = (size, text)
-    return None if worst is None else worst[1]
+        # the net force the contacts leave: the way it slips
+        slip = Slip(body.name, f / size, size, capacity)
+        if worst is None or size > worst.not_carried:
+            worst = slip
+    return worst

@@ -384,13 +384,16 @@ class FrameState:
         states: Mapping[str, BodyState],
         friction: FrictionState | None = None,
         anchors: Anchors | None = None,
+        slip: dict | None = None,
     ) -> FrameResult:
         """Assemble the frame's result from the last state.
 
         A frame converged only where no node-to-surface contact is left inside by more
         than the tolerance and no support group passes its limit; otherwise
         ``stop_reason`` says which. ``rows`` and ``lam`` are the closed contacts' normal
-        rows and forces; ``friction`` their tangential rows and forces, where any.
+        rows and forces; ``friction`` their tangential rows and forces, where any;
+        ``slip`` the record of a free body friction does not hold
+        (:meth:`contact.solver.coulomb.Slip.record`).
         """
         e = self.matrices(rows) if len(rows) else {}
         force_rows, force_lam = rows, lam
@@ -473,6 +476,7 @@ class FrameState:
             anchors=anchors,
             contact_fields=fields,
             plane_positions=self.driven.positions(),
+            slip=slip,
         )
 
 

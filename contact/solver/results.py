@@ -197,6 +197,10 @@ class FrameResult:
     plane_positions : dict of str to ndarray
         Each plane's translation at the end (m, shape (3,)): its motion, and for a
         force-driven plane the distance the solve moved it along its normal.
+    slip : dict or None
+        Where friction does not hold a free body: ``body``, ``direction`` (unit, the way
+        it slips), ``not_carried`` (the load its contacts leave, N) and ``available``
+        (their friction, ``sum mu N``, N); None otherwise.
     """
 
     converged: bool
@@ -219,6 +223,7 @@ class FrameResult:
     anchors: object | None = None
     contact_fields: dict[str, dict[str, NDArray]] = field(default_factory=dict)
     plane_positions: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+    slip: dict | None = None
 
     def total_contact_force(self, body: str) -> NDArray[np.float64]:
         """Sum of the contact forces on one body (N)."""
