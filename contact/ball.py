@@ -4,7 +4,9 @@ A :class:`BallSpec` says what ball a scene wants (the ``[ball]`` table of a scen
 :func:`make_ball` meshes it, or reads and checks a mesh file, and returns a :class:`Ball`:
 the mesh, its material, its inner surface (where the pressure acts), its outer surface
 (what can touch) and the pressure load. Inner and outer faces are told apart by the
-radius of their centroids against the mid-wall radius.
+radius of their centroids against the mid-wall radius. An external force and moment on
+the ball in time (``ball.load``) is the spec's too (:meth:`BallSpec.load_at`); the run
+spreads it over the placed ball's nodes.
 """
 
 from __future__ import annotations
@@ -26,6 +28,8 @@ from .errors import BallError
 __all__ = [
     "LOCKING_NOTE",
     "LOCKING_NU",
+    "MAX_LOAD_FORCE",
+    "MAX_LOAD_MOMENT",
     "RADIUS_TOL",
     "STRAIN_WARN",
     "Ball",
@@ -48,6 +52,14 @@ LOCKING_NOTE = (
     "they lock as nu nears 1/2 and come out too stiff (on Lame's thick sphere 7 % at "
     "nu = 0.45, 16 % at 0.49)"
 )
+#: The largest external force (N) ``ball.load`` may give, and the scene's bound on any force
+#: (:data:`contact.scene.model.MAX_FORCE`): far above a grip.
+MAX_LOAD_FORCE = 1.0e4
+#: The largest external moment (N m) ``ball.load`` may give: that force at 0.1 m, a lever
+#: longer than any ball a hand holds.
+MAX_LOAD_MOMENT = 1.0e3
+#: How a ``ball.load`` key is written.
+_LOAD_FORM = "[t, fx, fy, fz, mx, my, mz]"
 log = logging.getLogger(__name__)
 _ICO_EDGE = 4.0 / math.sqrt(10.0 + 2.0 * math.sqrt(5.0))  # icosahedron edge / circumradius
 
@@ -58,6 +70,30 @@ def _number(name: str, value: object) -> float:
     if not math.isfinite(float(value)):
         raise BallError(f"ball.{name} = {value!r}: must be finite")
     return float(value)
+
+
+def _load_keys(load: object) -> tuple[tuple[float, ...], ...]:
+    """``ball.load`` checked: keys of 7 finite numbers, times increasing, bounded magnitudes."""
+    if isinstance(load, (str, bytes)) or not isinstance(load, (list, tuple)):
+        raise BallError(f"ball.load = {load!r}: must be a list of {_LOAD_FORM}")
+    keys: list[tuple[float, ...]] = []
+    for j, key in enumerate(load):
+        where = f"ball.load[{j}] = {key!r}"
+        if isinstance(key, (str, bytes)) or not isinstance(key, (list, tuple)) or len(key) != 7:
+            raise BallError(f"{where}: must be 7 numbers {_LOAD_FORM}")
+        if any(isinstance(v, bool) or not isinstance(v, (int, float, np.number)) for v in key):
+            raise BallError(f"{where}: must be 7 numbers {_LOAD_FORM}")
+        k = tuple(float(v) for v in key)
+        if not all(math.isfinite(v) for v in k):
+            raise BallError(f"{where}: must be finite")
+        if keys and not k[0] > keys[-1][0]:
+            raise BallError(f"{where}: times must increase (previous {keys[-1][0]:g})")
+        if math.hypot(*k[1:4]) > MAX_LOAD_FORCE:
+            raise BallError(f"{where}: the force must be at most {MAX_LOAD_FORCE:g} N")
+        if math.hypot(*k[4:7]) > MAX_LOAD_MOMENT:
+            raise BallError(f"{where}: the moment must be at most {MAX_LOAD_MOMENT:g} N m")
+        keys.append(k)
+    return tuple(keys)
 
 
 @dataclass(frozen=True)
@@ -91,6 +127,12 @@ class BallSpec:
         locking, the factorisation three to four times dearer; :mod:`fem.nodalpressure`).
         None (default): when the mesh is tetrahedra and ``nu`` is above
         :data:`LOCKING_NU`. Bricks are B-bar whatever it says.
+    load : tuple of 7-tuples of float
+        An external force and moment on the ball in time, ``(t, fx, fy, fz, mx, my, mz)``
+        keys (s, N, N m), times increasing, piecewise linear between keys and constant
+        outside (:meth:`load_at`); in the scene's frame, the moment about the ball's centre
+        where the ball is placed at ``t``. Forces up to :data:`MAX_LOAD_FORCE`, moments up
+        to :data:`MAX_LOAD_MOMENT`. Empty (default): no load.
 
     Raises
     ------
@@ -111,6 +153,7 @@ class BallSpec:
     nu: float = 0.45
     density: float = 1100.0
     nodal_pressure: bool | None = None
+    load: tuple[tuple[float, ...], ...] = ()
 
     def __post_init__(self) -> None:
         r = _number("radius", self.radius)
@@ -155,6 +198,18 @@ class BallSpec:
             self.material  # noqa: B018  (validates E, nu and density)
         except fem.MaterialError as exc:
             raise BallError(f"ball.material.{exc}") from None
+        object.__setattr__(self, "load", _load_keys(self.load))
+
+    def load_at(self, time: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The external force (N) and moment (N m) on the ball at ``time``, shapes (3,).
+
+        Piecewise linear between the ``load`` keys, constant outside; zero without keys.
+        """
+        if not self.load:
+            return np.zeros(3), np.zeros(3)
+        k = np.array(self.load)
+        fm = np.array([np.interp(time, k[:, 0], k[:, i]) for i in range(1, 7)])
+        return fm[:3], fm[3:]
 
     @property
     def inner_radius(self) -> float:

@@ -1,7 +1,8 @@
-"""Load vectors: body force, surface pressure, point forces, initial stress.
+"""Load vectors: body force, surface pressure, point forces, initial stress, a resultant.
 
-Every function returns a global load vector of shape ``(3 N,)`` in node-major DOF order;
-add them up to form ``R``.
+Every ``*_load`` function returns a global load vector of shape ``(3 N,)`` in node-major
+DOF order; add them up to form ``R``. :func:`resultant_load` spreads a given force and
+moment over nodes (``(N, 3)``); :func:`nodal_volumes` gives the lumped weights it takes.
 """
 
 from __future__ import annotations
@@ -21,8 +22,10 @@ __all__ = [
     "STANDARD_GRAVITY",
     "gravity_load",
     "initial_stress_load",
+    "nodal_volumes",
     "point_load",
     "pressure_load",
+    "resultant_load",
     "voigt_to_tensor",
 ]
 
@@ -65,6 +68,102 @@ def gravity_load(
         for c in range(3):
             f[:, c] += np.bincount(conn.ravel(), (mass * g[c]).ravel(), minlength=mesh.n_points)
     return f.ravel()
+
+
+def nodal_volumes(mesh: Mesh) -> NDArray[np.float64]:
+    """Lumped nodal volumes ``V_a = int N_a dV`` (row sums of the consistent mass at rho = 1).
+
+    Parameters
+    ----------
+    mesh : Mesh
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        m^3 per node (0 on a node no cell uses); they add up to the mesh's volume.
+    """
+    v = np.zeros(mesh.n_points)
+    for kind, conn in mesh.cells.items():
+        elem = ELEMENTS[kind]
+        _, detj = gradients(mesh.points[conn], elem)
+        share = np.einsum("eq,q,qa->ea", detj, elem.weights, elem.shape(elem.points))
+        v += np.bincount(conn.ravel(), share.ravel(), minlength=mesh.n_points)
+    return v
+
+
+def resultant_load(
+    points: ArrayLike,
+    weights: ArrayLike,
+    force: ArrayLike,
+    moment: ArrayLike,
+    center: ArrayLike,
+) -> NDArray[np.float64]:
+    """Nodal forces with a given resultant force and moment, spread like a body force.
+
+    With ``W = sum w_i``, the weighted centroid ``c_w = sum w_i x_i / W``, ``r_i = x_i -
+    c_w`` and the weights' inertia tensor ``J = sum w_i (|r_i|^2 I - r_i r_i^T)``::
+
+        f_i = w_i F / W + w_i omega x r_i,    J omega = M - (c_w - c) x F.
+
+    The first term is a uniform body force: its resultant is ``F`` and, the moments taken
+    about ``c_w``, it has none (``sum w_i r_i = 0``). The second is a rigid rotation's
+    field: no resultant (``sum w_i r_i = 0`` again), moment ``J omega`` about any point.
+    The moment about ``center`` of the whole is ``J omega + (c_w - c) x F = M``.
+
+    Parameters
+    ----------
+    points : array_like, shape (n, 3)
+        Node positions (m).
+    weights : array_like, shape (n,)
+        Non-negative nodal weights: lumped masses or volumes (:func:`nodal_volumes`).
+    force : array_like, shape (3,)
+        The resultant force ``F`` (N).
+    moment : array_like, shape (3,)
+        The resultant moment ``M`` (N m) about ``center``.
+    center : array_like, shape (3,)
+        The point ``c`` the moment is taken about (m).
+
+    Returns
+    -------
+    ndarray, shape (n, 3)
+        Nodal forces (N); invariant to the order of the nodes.
+
+    Raises
+    ------
+    LoadError
+        Bad shapes or non-finite values, a negative weight or a zero total weight, or a
+        moment to carry (``M - (c_w - c) x F`` not zero) on weighted nodes that all lie on
+        a line (``J`` singular: no moment along the line).
+    """
+    x = np.asarray(points, dtype=np.float64)
+    w = np.asarray(weights, dtype=np.float64)
+    if x.ndim != 2 or x.shape[1] != 3 or w.shape != (len(x),):
+        raise LoadError(
+            f"resultant_load takes points (n, 3) and weights (n,), got {x.shape} and {w.shape}"
+        )
+    if not (np.isfinite(x).all() and np.isfinite(w).all()):
+        raise LoadError("resultant_load: points and weights must be finite")
+    if (w < 0).any():
+        raise LoadError(f"resultant_load: weights must not be negative (min {w.min():g})")
+    f, m, c = _vector(force, "force"), _vector(moment, "moment"), _vector(center, "center")
+    total = float(w.sum())
+    if not total > 0:
+        raise LoadError("resultant_load: the weights add up to zero: nothing to carry the load")
+    cw = w @ x / total
+    r = x - cw
+    out = np.outer(w, f / total)
+    need = m - np.cross(cw - c, f)
+    if not need.any():
+        return out
+    j = np.einsum("i,ij,ij->", w, r, r) * np.eye(3) - np.einsum("i,ij,ik->jk", w, r, r)
+    eig = np.linalg.eigvalsh(j)
+    if not eig[0] > 1e-12 * eig[-1]:
+        raise LoadError(
+            "resultant_load: the weighted nodes lie on a line (singular inertia): they carry "
+            f"no moment along it, moment {need.tolist()} asked"
+        )
+    omega = np.linalg.solve(j, need)
+    return out + w[:, None] * np.cross(omega, r)
 
 
 def _faces_of(faces: BoundaryFaces | Mapping[str, ArrayLike]) -> dict[str, NDArray[np.int64]]:

@@ -50,7 +50,7 @@ __all__ = ["load_scene"]
 _TOP = ("scene", "ball", "hand", "plane", "frames", "solver", "output")
 _BALL = (
     "radius", "kind", "thickness", "pressure", "element", "mesh_size", "mesh", "center",
-    "material", "follow", "nodal_pressure", "friction",
+    "material", "follow", "nodal_pressure", "friction", "load",
 )  # fmt: skip
 
 
@@ -87,6 +87,8 @@ def _read_ball(
         kw["center"] = r.vector(b["center"], "ball.center")
     if "nodal_pressure" in b:
         kw["nodal_pressure"] = r.boolean(b["nodal_pressure"], "ball.nodal_pressure")
+    if "load" in b:  # [[t, fx, fy, fz, mx, my, mz], ...]: BallSpec checks the keys
+        kw["load"] = b["load"]
     if "mesh" in b:
         if "mesh_size" in b:
             raise r.fail("ball.mesh", b["mesh"], "give mesh or mesh_size, not both")

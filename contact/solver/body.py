@@ -126,6 +126,24 @@ class ElasticBody:
         moved.mesh = fem.Mesh(x, self.mesh.cells, self.mesh.regions)
         return moved
 
+    def with_loads(self, loads: ArrayLike) -> ElasticBody:
+        """The same body under other known nodal loads ``(3N,)``, nothing refactored.
+
+        Stiffness, solver and factorisation are shared. The solver answers a load by its
+        value (:meth:`fem.StaticSolver.apply_inverse` reuses an anticipated answer only for
+        the very vector it anticipated), so the shared factorisation solves the new loads
+        afresh.
+        """
+        f = np.asarray(loads, dtype=np.float64)
+        if f.shape != self.loads.shape:
+            raise ValueError(
+                f"{self.name}: loads must have shape {self.loads.shape}, got {f.shape}"
+            )
+        out = object.__new__(ElasticBody)
+        out.__dict__.update(self.__dict__)
+        out.loads = f.copy()
+        return out
+
     @property
     def free(self) -> bool:
         """True when nothing but contacts holds the body."""

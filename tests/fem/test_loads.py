@@ -89,3 +89,61 @@ def test_initial_stress_shape_error():
     m = fem.box_mesh((1, 1, 1), (1, 1, 1))
     with pytest.raises(fem.LoadError, match="initial stress for hexahedron"):
         fem.initial_stress_load(m, {"hexahedron": np.zeros((2, 6))})
+
+
+def _moment(x, f, c):
+    return np.cross(x - c, f).sum(axis=0)
+
+
+@pytest.mark.parametrize("center", [None, (0.3, -0.2, 0.7)])
+def test_resultant_load_has_its_force_and_moment(any_mesh, center):
+    w = fem.loads.nodal_volumes(any_mesh)
+    assert w.sum() == pytest.approx(any_mesh.volume, rel=1e-12)
+    c = w @ any_mesh.points / w.sum() if center is None else np.array(center)
+    force, moment = np.array([1.5, -2.0, 0.5]), np.array([0.2, 0.1, -0.3])
+    f = fem.loads.resultant_load(any_mesh.points, w, force, moment, c)
+    scale = np.abs(f).sum()
+    assert np.abs(f.sum(axis=0) - force).max() < 1e-12 * scale
+    assert np.abs(_moment(any_mesh.points, f, c) - moment).max() < 1e-12 * scale
+    # the force alone about the weighted centroid is a body force: nodal volume times F / V
+    cw = w @ any_mesh.points / w.sum()
+    g = fem.loads.resultant_load(any_mesh.points, w, force, np.zeros(3), cw)
+    assert np.allclose(g, np.outer(w, force / w.sum()), rtol=0, atol=1e-15 * scale)
+
+
+def test_resultant_load_is_invariant_to_node_order():
+    rng = np.random.default_rng(0)
+    x, w = rng.normal(size=(40, 3)), rng.uniform(0.1, 2.0, 40)
+    args = ((1.0, 2.0, 3.0), (-0.5, 0.25, 1.0), (0.1, 0.2, 0.3))
+    f = fem.loads.resultant_load(x, w, *args)
+    p = rng.permutation(40)
+    g = fem.loads.resultant_load(x[p], w[p], *args)
+    assert np.abs(g - f[p]).max() < 1e-12 * np.abs(f).max()
+
+
+def test_resultant_load_matches_gravity_for_a_weight():
+    """Weights as masses, a weight's force about the centre of mass: gravity's lumped loads."""
+    m = fem.box_mesh((1.0, 2.0, 0.5), (2, 3, 2))
+    mass = 800.0 * fem.loads.nodal_volumes(m)
+    g = np.array([0.0, 0.0, -9.81])
+    cm = mass @ m.points / mass.sum()
+    f = fem.loads.resultant_load(m.points, mass, mass.sum() * g, np.zeros(3), cm)
+    ref = fem.gravity_load(m, fem.LinearElastic(1e6, 0.3, 800.0), g).reshape(-1, 3)
+    assert np.allclose(f, ref, rtol=1e-12, atol=1e-12 * np.abs(ref).max())
+
+
+def test_resultant_load_errors():
+    x = np.array([[0.0, 0, 0], [1.0, 0, 0], [2.0, 0, 0]])
+    with pytest.raises(fem.LoadError, match="add up to zero"):
+        fem.loads.resultant_load(x, np.zeros(3), (1, 0, 0), (0, 0, 0), (0, 0, 0))
+    with pytest.raises(fem.LoadError, match="on a line"):
+        fem.loads.resultant_load(x, np.ones(3), (0, 0, 0), (0, 0, 1), (0, 0, 0))
+    with pytest.raises(fem.LoadError, match="negative"):
+        fem.loads.resultant_load(x, [1.0, -1.0, 1.0], (1, 0, 0), (0, 0, 0), (0, 0, 0))
+    with pytest.raises(fem.LoadError, match="moment must be 3 finite"):
+        fem.loads.resultant_load(x, np.ones(3), (1, 0, 0), (0, np.nan, 0), (0, 0, 0))
+    with pytest.raises(fem.LoadError, match=r"points \(n, 3\)"):
+        fem.loads.resultant_load(x[:, :2], np.ones(3), (1, 0, 0), (0, 0, 0), (0, 0, 0))
+    # nodes on a line still carry a force through their centroid
+    f = fem.loads.resultant_load(x, np.ones(3), (0, 0, 3), (0, 0, 0), (1, 0, 0))
+    assert np.allclose(f, [[0, 0, 1]] * 3)
