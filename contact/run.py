@@ -22,6 +22,7 @@ or a plane (:meth:`GraspRun.warn_overlaps`). Writing the results is the caller's
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import time
 import warnings
@@ -35,9 +36,11 @@ import fem
 
 from .ball import LOCKING_NOTE, LOCKING_NU, Ball, make_ball
 from .errors import InputError
+from .fingerforce import FIRST_PRESS, Target, drive
 from .geometry.plane import Plane
 from .geometry.surfacequery import TriangleSurface
 from .hand.autoflex import auto_flex, sphere_distance
+from .hand.fingers import node_parts
 from .hand.keyframes import Keyframes
 from .hand.objects import ObjectAssociation
 from .hand.posing import HandPoser, Pose
@@ -88,6 +91,7 @@ class GraspRun:
     _hand_body: ElasticBody | None = field(default=None, init=False)
     _hand_key: bytes = field(default=b"", init=False)
     _pose: Pose | None = field(default=None, init=False)
+    _node_parts: NDArray[np.int64] | None = field(default=None, init=False, repr=False)
     anchors: Anchors | None = field(default=None, init=False)
     positions: dict[str, NDArray[np.float64]] = field(default_factory=dict, init=False)
     _last_time: float | None = field(default=None, init=False, repr=False)
@@ -129,24 +133,33 @@ class GraspRun:
         """The hand's angles at time ``t``: keyframes, then automatic flexion.
 
         Each automatic flexion's outcome is kept in :attr:`auto_flexed` (joint to angle,
-        the node that reached the ball, its distance, converged and why).
+        the node that reached the ball, its distance, converged and why). A force-driven
+        one stops at first contact; the angle it presses :data:`FIRST_PRESS` past that is
+        kept for the force search (:meth:`_solve`).
         """
         assert self.keyframes is not None and self.hand is not None
         angles = self.keyframes.pose(t)
         self.auto_flexed: dict[str, dict] = {}
-        for af in self.scene.hand.auto_flexion:
-            if af.times is not None and not any(abs(t - s) <= 1e-12 for s in af.times):
-                continue
+        self._pressed: dict[str, float] = {}
+        ball = sphere_distance(self._ball_centre(t), self.ball.spec.radius)
+        for af in self._flexions(t):
             res = auto_flex(
                 self.hand,
                 af.point,
-                sphere_distance(self._ball_centre(t), self.ball.spec.radius),
+                ball,
                 af.joint,
                 angles=angles,
                 press=af.press,
                 epsilon=af.epsilon,
                 first_contact=af.first_contact,
             )
+            if af.force is not None and res.converged:
+                # force-driven: from first contact; the search's first trial presses past it
+                deeper = auto_flex(
+                    self.hand, af.point, ball, af.joint, angles=res.angles,
+                    press=FIRST_PRESS, epsilon=af.epsilon, first_contact=af.first_contact,
+                )  # fmt: skip
+                self._pressed[af.joint] = deeper.angle
             if not res.converged:
                 log.warning("t = %g: automatic flexion of %s: %s", t, af.joint, res.reason)
             self.auto_flexed[af.joint] = {
@@ -158,6 +171,14 @@ class GraspRun:
             }
             angles = dict(res.angles)
         return angles
+
+    def _flexions(self, t: float) -> list:
+        """The scene's automatic flexions that apply at ``t``."""
+        return [
+            af
+            for af in self.scene.hand.auto_flexion  # type: ignore[union-attr]
+            if af.times is None or any(abs(t - s) <= 1e-12 for s in af.times)
+        ]
 
     def ball_transform(self, t: float) -> NDArray[np.float64]:
         """Rigid placement of the ball at ``t`` from its scene position (4x4)."""
@@ -172,7 +193,10 @@ class GraspRun:
         return tf[:3, :3] @ np.asarray(self.ball.spec.center, float) + tf[:3, 3]
 
     def ball_body(self, t: float) -> ElasticBody:
-        """The ball placed for ``t``; refactored only when its placement turns it."""
+        """The ball placed for ``t``; refactored only when its placement turns it.
+
+        Its loads: its own (pressure), gravity, and ``ball.load`` at ``t``.
+        """
         tf = self.ball_transform(t)
         key = np.round(tf[:3, :3], 12).tobytes()
         x = self.ball.mesh.points @ tf[:3, :3].T + tf[:3, 3]
@@ -192,9 +216,24 @@ class GraspRun:
                 nodal_pressure=self.ball.nodal_pressure,
             )
             self._ball_key = key
-            return self._ball_body
+            return self._ball_loaded(self._ball_body, tf, t)
         # a translation: same stiffness, same factorisation, moved points
-        return self._ball_body.translated(x)
+        return self._ball_loaded(self._ball_body.translated(x), tf, t)
+
+    def _ball_loaded(self, body: ElasticBody, tf: NDArray[np.float64], t: float) -> ElasticBody:
+        """The placed ball with ``ball.load`` at ``t`` added to its loads, nothing refactored.
+
+        Spread by nodal volume, the moment about the ball's centre placed by ``tf``. The
+        load is the scene's (a :meth:`restart` may change it), not the meshed ball's.
+        """
+        spec = self.scene.ball
+        if not spec.load:
+            return body
+        force, moment = spec.load_at(t)
+        centre = tf[:3, :3] @ np.asarray(spec.center, float) + tf[:3, 3]
+        weights = fem.loads.nodal_volumes(body.mesh)
+        f = fem.loads.resultant_load(body.mesh.points, weights, force, moment, centre)
+        return body.with_loads(body.loads + f.ravel())
 
     def _placed_mesh(self, x: NDArray[np.float64]) -> fem.Mesh:
         m = self.ball.mesh
@@ -333,7 +372,75 @@ class GraspRun:
     def _solve(
         self, t: float, callback: Callable[[IterationRecord], None] | None
     ) -> tuple[FrameResult, dict, list[Plane], list[ElasticBody]]:
-        """Set up and solve the contact at time ``t``, carrying the anchors."""
+        """Set up and solve the contact at time ``t``, carrying the anchors.
+
+        With force-driven fingers, the frame is solved at the angles
+        :func:`contact.fingerforce.drive` tries, each trial from the same history.
+        """
+        angles = self.angles(t) if self.hand is not None else {}
+        targets = self._targets(t)
+        if not targets:
+            return self._solve_pose(t, angles, callback)
+        kept = (self.anchors, dict(self.positions))
+
+        def trial(pose: dict[str, float]) -> tuple[tuple, dict[str, float]]:
+            self.anchors, self.positions = kept[0], dict(kept[1])
+            out = self._solve_pose(t, pose, callback)
+            return out, self._finger_forces(out[0], out[3], targets)
+
+        pressed = {**angles, **self._pressed}
+        out, angles, drives = drive(trial, angles, pressed, [tg for tg, _ in targets])
+        result, extra, planes, bodies = out
+        for j, d in drives.items():
+            self.auto_flexed[j] = {**self.auto_flexed[j], "angle": d.angle, **d.record()}
+        extra["auto_flexion"] = self.auto_flexed
+        short = [d.reason for d in drives.values() if not d.converged]
+        if short:
+            why = "finger force not reached: " + "; ".join(short)
+            stop = why if result.converged else f"{result.stop_reason}; {why}"
+            result = dataclasses.replace(result, converged=False, stop_reason=stop)
+        return result, extra, planes, bodies
+
+    def _targets(self, t: float) -> list[tuple[Target, int]]:
+        """The force-driven flexions at ``t``, each with its finger's hand part."""
+        if self.hand is None:
+            return []
+        out = []
+        limits = self.hand.skeleton.limits
+        for af in self._flexions(t):
+            if af.force is None or af.joint not in self._pressed:
+                continue
+            if isinstance(af.point, str):
+                part = self.hand.part_names.index(af.point)
+            else:
+                part = int(self._parts()[af.point])
+            target = Target(af.joint, float(af.force), af.force_tolerance, limits[af.joint][1])
+            out.append((target, part))
+        return out
+
+    def _parts(self) -> NDArray[np.int64]:
+        """The hand part of every flesh node."""
+        assert self.hand is not None
+        if self._node_parts is None:
+            self._node_parts = node_parts(self.hand.flesh, len(self.hand.part_names))
+        return self._node_parts
+
+    def _finger_forces(
+        self, result: FrameResult, bodies: list[ElasticBody], targets: list[tuple[Target, int]]
+    ) -> dict[str, float]:
+        """Each force-driven joint's finger: its total normal contact force (N)."""
+        fields = result.contact_fields.get("hand")
+        parts = self._parts()
+        out = {}
+        for target, part in targets:
+            fn = np.zeros(parts.size) if fields is None else np.asarray(fields["normal_force"])
+            out[target.joint] = float(fn[parts == part].sum())
+        return out
+
+    def _solve_pose(
+        self, t: float, angles: dict[str, float], callback: Callable[[IterationRecord], None] | None
+    ) -> tuple[FrameResult, dict, list[Plane], list[ElasticBody]]:
+        """Set up and solve the contact at time ``t`` with the hand at ``angles``."""
         sc = self.scene
         t0 = time.perf_counter()
         ball = self.ball_body(t)
@@ -341,7 +448,6 @@ class GraspRun:
         pairs: list[ContactPair] = []
         extra: dict = {}
         if self.hand is not None:
-            angles = self.angles(t)
             hand = self.hand_body(angles)
             self.check_bones(ball, t)
             bodies.append(hand)

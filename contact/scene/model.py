@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 import fem
 from fem.linsolve import BACKENDS
 
+from ..ball import MAX_LOAD_FORCE
 from ..errors import SceneError
 from ..hand.autoflex import FINGERTIPS
 from ..hand.shipped import HAND_DIR
@@ -48,8 +49,9 @@ LINEAR_SOLVERS = ("auto", *BACKENDS)
 CONTACT_KEYS = tuple(f.name for f in fields(ContactSettings) if f.name != "support_limits")
 #: Body names a plane may not take.
 RESERVED = ("ball", "hand")
-#: The largest force (N) a force-driven plane or finger may be given: far above any grip.
-MAX_FORCE = 1.0e4
+#: The largest force (N) a force-driven plane or finger, or the ball's load, may be given:
+#: far above any grip.
+MAX_FORCE = MAX_LOAD_FORCE
 
 
 @dataclass(frozen=True)
@@ -99,6 +101,11 @@ class AutoFlex:
         Stop at the first skin node the joint brings to the ball (``point`` or another,
         a finger's pad before its tip); False: ``point`` alone, as in Magnenat-Thalmann,
         Laperriere and Thalmann 1988.
+    force : float or None
+        A force-driven flexion (N, > 0; not with ``press``): the joint closes past first
+        contact until the normal contact force on ``point``'s finger is ``force``.
+    force_tolerance : float
+        Relative accuracy of that force, in (0, 0.5].
     """
 
     joint: str
@@ -107,6 +114,8 @@ class AutoFlex:
     press: float = 0.0
     times: tuple[float, ...] | None = None
     first_contact: bool = True
+    force: float | None = None
+    force_tolerance: float = 0.01
 
     def __post_init__(self) -> None:
         if isinstance(self.point, str) and self.point not in FINGERTIPS:
@@ -117,6 +126,13 @@ class AutoFlex:
             raise invalid("epsilon", self.epsilon, "must be positive")
         if self.press < 0:
             raise invalid("press", self.press, "must not be negative")
+        if self.force is not None:
+            if not 0 < self.force <= MAX_FORCE:
+                raise invalid("force", self.force, f"must lie in (0, {MAX_FORCE:g}] N")
+            if self.press:
+                raise invalid("force", self.force, "a flexion is driven by press or by force")
+        if not 0 < self.force_tolerance <= 0.5:
+            raise invalid("force_tolerance", self.force_tolerance, "must lie in (0, 0.5]")
 
 
 @dataclass(frozen=True)

@@ -181,7 +181,9 @@ def read_auto_flexion(
             a,
             where,
             required=("joint", "point"),
-            optional=("epsilon", "press", "times", "first_contact"),
+            optional=(
+                "epsilon", "press", "times", "first_contact", "force", "force_tolerance"
+            ),
         )
         joint = r.string(a["joint"], f"{where}.joint")
         if joint not in skeleton.limits:
@@ -199,7 +201,7 @@ def read_auto_flexion(
                 f"must be a fingertip ({', '.join(FINGERTIPS)}) or a node index",
             )
         kw: dict[str, Any] = {}
-        for key in ("epsilon", "press"):
+        for key in ("epsilon", "press", "force", "force_tolerance"):
             if key in a:
                 kw[key] = r.number(a[key], f"{where}.{key}")
         times = None

@@ -142,14 +142,18 @@ class Scene:
             or no friction to hold it with.
         """
         peaks = {p.name: max(n for _, n in p.force) for p in self.planes if p.driven}
+        for a in self.hand.auto_flexion if self.hand is not None else ():
+            if a.force is not None:
+                peaks[a.joint] = max(peaks.get(a.joint, 0.0), a.force)
         if not peaks:
             raise SceneError(
-                "--least-grip: the scene has nothing force-driven to scale "
-                "(give a [[plane]] force = [[t, N], ...] instead of offsets)"
+                "--least-grip: the scene has nothing force-driven to scale (give a "
+                "[[plane]] force = [[t, N], ...] or a [[hand.auto_flexion]] force = N)"
             )
-        if self.gravity is None or not any(self.gravity):
+        if (self.gravity is None or not any(self.gravity)) and not self.ball.load:
             raise SceneError(
-                "--least-grip: nothing to hold: the free ball has no load (set scene.gravity)"
+                "--least-grip: nothing to hold: the free ball has no load (set scene.gravity "
+                "or ball.load)"
             )
         if not self.frictional:
             raise SceneError(
@@ -159,7 +163,7 @@ class Scene:
         return peaks
 
     def grip_scaled(self, s: float) -> Scene:
-        """A copy with every force-driven element's force table times ``s`` (> 0).
+        """A copy with every force-driven plane's and finger's force times ``s`` (> 0).
 
         Elements driven by positions (offsets, angles, press depths) are unchanged.
 
@@ -178,7 +182,18 @@ class Scene:
                 planes.append(replace(p, force=tuple((t, n * s) for t, n in p.force)))
             except SceneError as exc:
                 raise SceneError(f"plane[{i}] ({p.name}) scaled by {s:g}: {exc}") from None
-        return replace(self, planes=tuple(planes))
+        if self.hand is None:
+            return replace(self, planes=tuple(planes))
+        flexions = []
+        for i, a in enumerate(self.hand.auto_flexion):
+            try:
+                flexions.append(a if a.force is None else replace(a, force=a.force * s))
+            except SceneError as exc:
+                raise SceneError(
+                    f"hand.auto_flexion[{i}] ({a.joint}) scaled by {s:g}: {exc}"
+                ) from None
+        hand = replace(self.hand, auto_flexion=tuple(flexions))
+        return replace(self, planes=tuple(planes), hand=hand)
 
     def echo(self) -> dict:
         """The whole scene with its defaults filled in, JSON-serialisable, in the file's layout.
@@ -198,6 +213,7 @@ class Scene:
             "material": {"E": b.E, "nu": b.nu, "density": b.density},
             "nodal_pressure": b.nodal_pressure,
             "friction": self.ball_friction,
+            "load": [list(k) for k in b.load],
             "follow": None if self.follow is None else as_dict(self.follow),
         }
         hand = None

@@ -1,0 +1,167 @@
+"""Force-driven fingers: the 1-D search on each joint's angle, and a finger on the hand."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from contact.fingerforce import MAX_STEPS, Target, drive
+from contact.grasp import main
+from contact.scene import SceneError, load_scene
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _hertz(contact: float, k: float = 2.0):
+    """A finger force growing as the press to the power 3/2 past ``contact`` degrees."""
+
+    def force(a: float) -> float:
+        return k * max(a - contact, 0.0) ** 1.5
+
+    return force
+
+
+def test_one_joint_reaches_its_force_within_the_tolerance() -> None:
+    f = _hertz(20.0)
+    calls = []
+
+    def solve(angles):
+        calls.append(angles["j"])
+        return "result", {"j": f(angles["j"])}
+
+    target = Target("j", 3.0, 0.01, 90.0)
+    result, angles, drives = drive(solve, {"j": 20.0}, {"j": 20.2}, [target])
+    d = drives["j"]
+    assert result == "result" and d.converged
+    assert abs(f(angles["j"]) - 3.0) <= 0.03
+    assert angles["j"] == d.angle == calls[-1]  # the last solve is the returned pose
+    assert len(calls) <= 8
+    lo, hi = d.bracket()
+    exact = 20.0 + (3.0 / 2.0) ** (2 / 3)
+    assert d.record()["steps"] == len(calls)
+    assert lo is None or lo <= exact + 1e-9
+    assert hi is None or hi >= exact - 1e-9
+
+
+def test_two_joints_at_once_each_with_its_own_force() -> None:
+    fa, fb = _hertz(10.0, 1.0), _hertz(30.0, 5.0)
+
+    def solve(angles):
+        return None, {"a": fa(angles["a"]), "b": fb(angles["b"])}
+
+    targets = [Target("a", 1.0, 0.01, 90.0), Target("b", 4.0, 0.02, 90.0)]
+    _, angles, drives = drive(solve, {"a": 10.0, "b": 30.0}, {"a": 10.5, "b": 30.1}, targets)
+    assert all(d.converged for d in drives.values())
+    assert fa(angles["a"]) == pytest.approx(1.0, rel=0.01)
+    assert fb(angles["b"]) == pytest.approx(4.0, rel=0.02)
+
+
+def test_a_joint_at_its_limit_short_of_the_force_stops_and_says_so() -> None:
+    f = _hertz(20.0, 0.01)
+
+    def solve(angles):
+        return None, {"j": f(angles["j"])}
+
+    _, angles, drives = drive(solve, {"j": 20.0}, {"j": 20.5}, [Target("j", 50.0, 0.01, 30.0)])
+    d = drives["j"]
+    assert not d.converged and angles["j"] == 30.0
+    assert "reached its limit 30 deg" in d.reason
+
+
+def test_noise_does_not_loop_past_the_step_budget() -> None:
+    f = _hertz(20.0)
+
+    def solve(angles):
+        a = angles["j"]
+        return None, {"j": f(a) * (1 + 0.05 * math.sin(1e4 * a))}
+
+    _, _, drives = drive(solve, {"j": 20.0}, {"j": 20.2}, [Target("j", 3.0, 0.001, 90.0)])
+    assert len(drives["j"].trials) <= MAX_STEPS + 1
+
+
+def test_a_finger_pressing_already_steps_back() -> None:
+    f = _hertz(20.0)
+
+    def solve(angles):
+        return None, {"j": f(angles["j"])}
+
+    # the "touching" pose already presses (the ball moved since): forces above the target
+    _, angles, drives = drive(solve, {"j": 24.0}, {"j": 24.5}, [Target("j", 3.0, 0.01, 90.0)])
+    assert drives["j"].converged
+    assert f(angles["j"]) == pytest.approx(3.0, rel=0.01)
+
+
+FINGER = """\
+[ball]
+radius = 0.03
+kind = "solid"
+element = "hex"
+mesh_size = 0.006
+center = [-0.035, 0.15, -0.085]
+material = {{ E = 5.0e5, nu = 0.45, density = 1100.0 }}
+
+[hand]
+resolution = "coarse"
+flesh = {{ E = 5.0e4, nu = 0.45 }}
+
+[[hand.keyframe]]
+time = 0.0
+angles = {{ index_pip = 30.0, index_dip = 20.0, middle_mcp = 70.0, middle_pip = 90.0, middle_dip = 60.0, ring_mcp = 70.0, ring_pip = 90.0, ring_dip = 60.0, little_mcp = 70.0, little_pip = 90.0, little_dip = 60.0, thumb_cmc = 20.0, thumb_mcp = 30.0, thumb_ip = 30.0 }}
+
+[[hand.auto_flexion]]
+joint = "index_mcp"
+point = "index"
+{drive}
+
+[[plane]]
+name = "table"
+point = [0.0, 0.0, -0.1150]
+normal = [0.0, 0.0, 1.0]
+
+[[plane]]
+name = "wall"
+point = [-0.035, 0.12, 0.0]
+normal = [0.0, 1.0, 0.0]
+
+[frames]
+times = [0.0]
+
+[output]
+directory = "{out}"
+pictures = false
+"""
+
+
+def _finger(tmp_path: Path, drive_: str) -> Path:
+    path = tmp_path / "finger.toml"
+    path.write_text(FINGER.format(drive=drive_, out=(tmp_path / "out").as_posix()))
+    return path
+
+
+def test_a_force_driven_finger_on_the_hand(tmp_path: Path) -> None:
+    assert main([str(_finger(tmp_path, "force = 1.5")), "--quiet"]) == 0
+    frame = json.loads((tmp_path / "out" / "summary.json").read_text())["frames"][0]
+    assert frame["converged"], frame["stop_reason"]
+    rec = frame["auto_flexion"]["index_mcp"]
+    assert rec["converged"] and rec["steps"] <= MAX_STEPS
+    # the finger's force is the target within its tolerance, at the angle solved
+    assert frame["fingers"]["index"]["normal"] == pytest.approx(1.5, rel=0.01)
+    assert rec["reached"] == pytest.approx(frame["fingers"]["index"]["normal"], rel=1e-12)
+    assert frame["angles"]["index_mcp"] == rec["angle"]
+    lo, hi = rec["bracket"]
+    assert (lo is None or lo <= rec["angle"]) and (hi is None or rec["angle"] <= hi)
+
+
+def test_bad_force_flexion_keys(tmp_path: Path) -> None:
+    cases = {
+        "force = 1.0\npress = 0.001": "press or by force",
+        "force = -1.0": "must lie in (0",
+        "force = 1.0\nforce_tolerance = 0.0": "force_tolerance",
+    }
+    for text, words in cases.items():
+        with pytest.raises(SceneError, match=r"hand\.auto_flexion\[0\]") as err:
+            load_scene(_finger(tmp_path, text))
+        assert words in str(err.value)
