@@ -109,7 +109,9 @@ flesh = {{ E = 5.0e4, nu = 0.45 }}
 
 [[hand.keyframe]]
 time = 0.0
-angles = {{ index_pip = 30.0, index_dip = 20.0, middle_mcp = 70.0, middle_pip = 90.0, middle_dip = 60.0, ring_mcp = 70.0, ring_pip = 90.0, ring_dip = 60.0, little_mcp = 70.0, little_pip = 90.0, little_dip = 60.0, thumb_cmc = 20.0, thumb_mcp = 30.0, thumb_ip = 30.0 }}
+angles = {{ index_pip = 30.0, index_dip = 20.0, middle_mcp = 70.0, middle_pip = 90.0, \
+middle_dip = 60.0, ring_mcp = 70.0, ring_pip = 90.0, ring_dip = 60.0, little_mcp = 70.0, \
+little_pip = 90.0, little_dip = 60.0, thumb_cmc = 20.0, thumb_mcp = 30.0, thumb_ip = 30.0 }}
 
 [[hand.auto_flexion]]
 joint = "index_mcp"
