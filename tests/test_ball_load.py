@@ -162,19 +162,12 @@ def test_a_moment_about_the_pads_axis(tmp_path: Path) -> None:
     _, small, _ = solve(pads(tmp_path, keys(0, 0, 0, 0.3 * capacity, 0, 0), "third.toml"))
     assert small.held is True and small.converged
     _, big, _ = solve(pads(tmp_path, keys(0, 0, 0, 10 * capacity, 0, 0), "ten.toml"))
-    # no balance found; see the strict xfail below for how it is reported
-    assert big.held is not True and not big.converged
-
-
-@pytest.mark.xfail(
-    strict=True,
-    reason="contact.solver.coulomb.unheld weighs the net force a spring carries, not its "
-    "moment: a ball turned by a moment beyond its torsional friction ends 'friction did "
-    "not settle' rather than 'not held'",
-)
-def test_a_moment_beyond_the_torsional_friction_is_reported_not_held(tmp_path: Path) -> None:
-    _, big, _ = solve(pads(tmp_path, keys(0, 0, 0, 0.03, 0, 0)))
-    assert big.held is False and big.stop_reason.startswith("not held: ball")
+    # no balance: it turns about the pads' axis, the way the moment points
+    assert big.held is False and not big.converged
+    assert big.stop_reason.startswith("not held: ball turns about (1.000, ")
+    assert big.slip["turns"] and big.slip["direction"][0] > 0.999
+    # the moment not carried is about what passes the capacity
+    assert big.slip["not_carried"] == pytest.approx(9 * capacity, rel=0.3)
 
 
 # --- (c) the nodal loads' resultant -----------------------------------------------

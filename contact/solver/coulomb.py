@@ -107,24 +107,37 @@ class Slip:
     direction: NDArray[np.float64]
     not_carried: float
     available: float
+    turns: bool = False
 
     @property
     def reason(self) -> str:
-        """The frame's stop reason, ``"not held: <body> slips along (...): ..."``."""
+        """The frame's stop reason, ``"not held: <body> slips along (...): ..."``.
+
+        Or ``"not held: <body> turns about (...): ..."`` where the moment of its loads is
+        what its contacts do not carry (``not_carried`` in N m, ``direction`` the axis).
+        """
         d = self.direction
+        way = f"({d[0]:.3f}, {d[1]:.3f}, {d[2]:.3f})"
+        if self.turns:
+            return (
+                f"not held: {self.body} turns about {way}: {self.not_carried:.4g} N m of the "
+                "moment of its loads is not carried by its contacts (friction available sum "
+                f"mu N = {self.available:.4g} N)"
+            )
         return (
-            f"not held: {self.body} slips along ({d[0]:.3f}, {d[1]:.3f}, {d[2]:.3f}): "
-            f"{self.not_carried:.4g} N of its load is not carried by its contacts (friction "
-            f"available sum mu N = {self.available:.4g} N)"
+            f"not held: {self.body} slips along {way}: {self.not_carried:.4g} N of its load "
+            f"is not carried by its contacts (friction available sum mu N = "
+            f"{self.available:.4g} N)"
         )
 
     def record(self) -> dict:
-        """As plain JSON types."""
+        """As plain JSON types (``not_carried`` in N m where it turns)."""
         return {
             "body": self.body,
             "direction": [float(x) for x in self.direction],
             "not_carried": float(self.not_carried),
             "available": float(self.available),
+            "turns": bool(self.turns),
         }
 
 
@@ -135,8 +148,9 @@ def unheld(frame, space: ContactSpace, friction: Friction, rows: ContactRows) ->
     free body held by a soft spring in its rigid modes (`held_by_springs`), a problem that
     always has a solution: where the body is held the spring carries almost nothing, where
     it is not the spring carries the load the contacts could not. The message names the
-    body, that load (N) and the way it slips, and the friction available (the sum of ``mu
-    N`` over its contacts).
+    body, that load (N) and the way it slips, or the moment (N m) and the axis it turns
+    about where only a moment is left, and the friction available (the sum of ``mu N``
+    over its contacts).
     """
     sys_, mu, tangent = friction.system
     g, c = sys_.g, sys_.c
@@ -146,12 +160,12 @@ def unheld(frame, space: ContactSpace, friction: Friction, rows: ContactRows) ->
     res = solve_friction(
         w, np.zeros((w.shape[0], 0)), rhs, np.zeros(0), mu=mu, tangent=tangent
     )
-    net = space.net_forces(g.T @ res.lam - c)  # what the springs hold
+    net = space.net_wrenches(g.T @ res.lam - c)  # what the springs hold
     worst: Slip | None = None
     for body in frame.bodies:
         if body.name not in net:
             continue
-        f = net[body.name]
+        f, moment = net[body.name]
         size = float(np.linalg.norm(f))
         mine = np.zeros(len(rows))
         for i, pair in enumerate(frame.pairs):
@@ -159,10 +173,17 @@ def unheld(frame, space: ContactSpace, friction: Friction, rows: ContactRows) ->
                 mine[rows.pair == i] = pair.friction
         capacity = float(np.sum(mine * res.lam[: len(rows)]))
         load = float(np.linalg.norm(body.loads.reshape(-1, 3).sum(axis=0)))
-        if size <= UNBALANCED * max(load, capacity, 1e-300):
+        scale = UNBALANCED * max(load, capacity, 1e-300)
+        # a moment over the body's size weighs as a force: its turn at its surface
+        x = body.mesh.points - body.mesh.points.mean(axis=0)
+        reach = float(np.linalg.norm(x, axis=1).max(initial=0.0)) or 1.0
+        turn = float(np.linalg.norm(moment))
+        if size > scale:  # the net force the contacts leave: the way it slips
+            slip = Slip(body.name, f / size, size, capacity)
+        elif turn / reach > scale:
+            slip = Slip(body.name, moment / turn, turn, capacity, turns=True)
+        else:
             continue
-        # the net force the contacts leave: the way it slips
-        slip = Slip(body.name, f / size, size, capacity)
-        if worst is None or size > worst.not_carried:
+        if worst is None or slip.not_carried > worst.not_carried:
             worst = slip
     return worst

@@ -333,13 +333,25 @@ class ContactSpace:
 
     def net_forces(self, modal: NDArray[np.float64]) -> dict[str, NDArray[np.float64]]:
         """Each free body's net force ``(3,)`` (N) from forces ``modal`` in its placing modes."""
+        return {name: f for name, (f, _) in self.net_wrenches(modal).items()}
+
+    def net_wrenches(
+        self, modal: NDArray[np.float64]
+    ) -> dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]]:
+        """Each free body's net force (N) and moment about its centroid (N m), each ``(3,)``.
+
+        ``modal`` holds forces in the bodies' placing modes (in order); each is spread on
+        the nodes by its modes (an orthonormal basis) and summed.
+        """
         net = {}
         k = 0
         for body in self.bodies:
             if body.solver.free_body:
                 phi = self.placing(body)
                 r = phi.shape[1]
-                net[body.name] = (phi @ modal[k : k + r]).reshape(-1, 3).sum(axis=0)
+                f = (phi @ modal[k : k + r]).reshape(-1, 3)
+                x = body.mesh.points - body.mesh.points.mean(axis=0)
+                net[body.name] = (f.sum(axis=0), np.cross(x, f).sum(axis=0))
                 k += r
         return net
 
