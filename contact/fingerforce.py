@@ -9,8 +9,10 @@ angle; where two fingers squeeze one free ball, any placement of the ball betwee
 that gives both their forces is a root).
 
 Each joint starts from two angles the geometry gives without a solve: first contact
-(force 0) and a press of :data:`FIRST_PRESS` past it. Then, per joint, the secant through
-its last two trials while its force is below the target (the force is convex in the
+(force 0, a guess: the ball may have moved since it was measured) and a press of
+:data:`FIRST_PRESS` past it. After that first solve, the press is scaled as a Hertz
+contact's (``F ~ d^{3/2}``) to the target; then, per joint, the secant through its last
+two trials while its force is below the target (the force is convex in the
 press, so the secant overshoots and brackets the root), limited to :data:`GROWTH` times
 the last step, and the Illinois variant of regula falsi once the root is bracketed, with
 a bisection where that would not shrink the bracket. A joint is done when its force is
@@ -24,7 +26,13 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["FIRST_PRESS", "GROWTH", "MAX_STEPS", "Drive", "Target", "drive"]
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = [
+    "ANGLE_RESOLUTION", "FIRST_PRESS", "GROWTH", "MAX_STEPS", "Drive", "Target", "drive",
+    "finger_forces", "guess", "remember",
+]  # fmt: skip
 
 #: The first trial presses each force-driven finger this far (m) past first contact.
 FIRST_PRESS = 5e-4
@@ -32,6 +40,8 @@ FIRST_PRESS = 5e-4
 MAX_STEPS = 12
 #: The largest factor by which an extrapolated step may exceed the joint's last one.
 GROWTH = 4.0
+#: A bracket narrower than this (degrees) whose ends miss the force: the force jumps there.
+ANGLE_RESOLUTION = 1e-2
 
 
 @dataclass(frozen=True)
@@ -48,12 +58,15 @@ class Target:
         Relative accuracy of that force.
     limit : float
         The joint's upper limit (degrees): it closes no further.
+    part : int
+        Its finger's hand part (:attr:`contact.hand.shipped.Hand.part_names`).
     """
 
     joint: str
     force: float
     tolerance: float
     limit: float
+    part: int = -1
 
     def reached(self, f: float) -> bool:
         """Whether force ``f`` is within the tolerance of the target."""
@@ -83,6 +96,7 @@ class Drive:
     converged: bool = False
     reason: str = ""
     _side: int = 0  # Illinois: which end of the bracket was kept last, -1 low, +1 high
+    _widths: list[float] = field(default_factory=list)  # the bracket's, step by step
 
     @property
     def angle(self) -> float:
@@ -135,6 +149,9 @@ def _next(d: Drive, target: Target) -> float:
             else:
                 flo *= 0.5
         d._side = side
+        d._widths.append(hi - lo)
+        if len(d._widths) >= 3 and d._widths[-1] > 0.5 * d._widths[-3]:
+            return 0.5 * (lo + hi)  # two steps did not halve it (a force that jumps)
         a = lo - flo * (hi - lo) / (fhi - flo) if fhi != flo else 0.5 * (lo + hi)
         inner = 0.02 * (hi - lo)
         if not lo + inner <= a <= hi - inner:
@@ -142,16 +159,18 @@ def _next(d: Drive, target: Target) -> float:
         return a
     (a0, f0), (a1, f1) = d.trials[-2], d.trials[-1]
     step = a1 - a0
+    if len(d.trials) == 2 and f1 > 0:
+        # one solve: its press past first contact scaled as a Hertz contact's, F ~ d^(3/2)
+        press = step * (target.force / f1) ** (2.0 / 3.0)
+        return min(a0 + min(press, GROWTH * abs(step)), target.limit)
     if hi is None:  # every force below the target: extrapolate upwards
         slope = (f1 - f0) / step if step else 0.0
         grow = GROWTH * abs(step)
         want = (target.force - f1) / slope if slope > 0 else grow
         return min(a1 + min(max(want, 0.0), grow), target.limit)
-    # every force solved above it (the finger pressed already at first contact): step back,
-    # by the secant of the last two solves, or twice the first step after one
+    # every force solved above it (the finger pressed already at first contact): step back
+    # by the secant of the last two solves
     first = abs(d.trials[1][0] - d.trials[0][0]) or 1.0
-    if len(d.trials) < 3:
-        return a1 - 2.0 * first
     slope = (f1 - f0) / step if step else 0.0
     back = (f1 - target.force) / slope if slope > 0 else GROWTH * abs(step)
     return a1 - min(max(back, 0.0), GROWTH * max(abs(step), first))
@@ -207,6 +226,16 @@ def drive(
             d = drives[t.joint]
             if t.reached(d.reached):
                 continue
+            lo, hi = d.bracket()
+            if lo is not None and hi is not None and hi - lo < ANGLE_RESOLUTION:
+                f = dict(d.trials[1:])
+                d.reason = (
+                    f"{t.joint}: its finger's force jumps from {f[lo]:.4g} N to {f[hi]:.4g} N "
+                    f"at {lo:.6g} deg (a node entering the contact): no angle gives "
+                    f"{t.force:.4g} N within {100 * t.tolerance:g} %"
+                )
+                stuck = True
+                continue
             a = _next(d, t)
             if a >= t.limit and d.angle >= t.limit and d.reached < t.force:
                 d.reason = (
@@ -228,3 +257,49 @@ def drive(
                 f"{hi if hi is not None else '-'} deg)"
             )
     return result, last, drives
+
+
+def finger_forces(
+    fields: Mapping[str, NDArray] | None, parts: NDArray[np.int64], targets: Sequence[Target]
+) -> dict[str, float]:
+    """Each target's finger: the sum of the hand's nodal normal contact forces on its part (N).
+
+    ``fields`` are the hand's contact fields (:attr:`FrameResult.contact_fields`), None
+    where it touches nothing; ``parts`` the hand part of every flesh node.
+    """
+    fn = np.zeros(parts.size) if fields is None else np.asarray(fields["normal_force"])
+    return {t.joint: float(fn[parts == t.part].sum()) for t in targets}
+
+
+#: What a run remembers of a frame's force-driven joints: (frame time, joint) ->
+#: (first contact's angle, the angle found, its force).
+Memory = dict[tuple[float, str], tuple[float, float, float]]
+
+
+def guess(
+    memory: Memory, t: float, touching: Mapping[str, float], pressed: Mapping[str, float],
+    targets: Sequence[Target],
+) -> dict[str, float]:
+    """The first trial's angles: where this frame's search ended last time, where it did.
+
+    A run that solves the frame again with other forces (``--least-grip``) starts each
+    joint at its last angle, its press past first contact scaled as a Hertz contact's
+    (``F ~ d^{3/2}``) to the new force; the others at :data:`FIRST_PRESS` (``pressed``).
+    """
+    out = dict(pressed)
+    for tg in targets:
+        last = memory.get((t, tg.joint))
+        if last is None or last[2] <= 0:
+            continue
+        a0, a, f = last
+        press = max(a - a0, 0.0) * (tg.force / f) ** (2.0 / 3.0)
+        out[tg.joint] = min(touching[tg.joint] + press, tg.limit)
+    return out
+
+
+def remember(
+    memory: Memory, t: float, touching: Mapping[str, float], drives: Mapping[str, Drive]
+) -> None:
+    """Keep each joint's first contact, angle found and force for the frame's next search."""
+    for j, d in drives.items():
+        memory[(t, j)] = (float(touching[j]), d.angle, d.reached)

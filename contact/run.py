@@ -36,7 +36,7 @@ import fem
 
 from .ball import LOCKING_NOTE, LOCKING_NU, Ball, make_ball
 from .errors import InputError
-from .fingerforce import FIRST_PRESS, Target, drive
+from .fingerforce import FIRST_PRESS, Target, drive, finger_forces, guess, remember
 from .geometry.plane import Plane
 from .geometry.surfacequery import TriangleSurface
 from .hand.autoflex import auto_flex, sphere_distance
@@ -92,6 +92,8 @@ class GraspRun:
     _hand_key: bytes = field(default=b"", init=False)
     _pose: Pose | None = field(default=None, init=False)
     _node_parts: NDArray[np.int64] | None = field(default=None, init=False, repr=False)
+    # each force-driven joint's last search by frame, shared by restarts (--least-grip)
+    _fingers: dict = field(default_factory=dict, init=False, repr=False)
     anchors: Anchors | None = field(default=None, init=False)
     positions: dict[str, NDArray[np.float64]] = field(default_factory=dict, init=False)
     _last_time: float | None = field(default=None, init=False, repr=False)
@@ -381,15 +383,18 @@ class GraspRun:
         targets = self._targets(t)
         if not targets:
             return self._solve_pose(t, angles, callback)
-        kept = (self.anchors, dict(self.positions))
+        # every trial from the same history, its flesh relaxed from the same pose
+        kept = (self.anchors, dict(self.positions), self._pose)
 
         def trial(pose: dict[str, float]) -> tuple[tuple, dict[str, float]]:
-            self.anchors, self.positions = kept[0], dict(kept[1])
+            self.anchors, self.positions, self._pose = kept[0], dict(kept[1]), kept[2]
             out = self._solve_pose(t, pose, callback)
-            return out, self._finger_forces(out[0], out[3], targets)
+            return out, finger_forces(out[0].contact_fields.get("hand"), self._parts(), targets)
 
-        pressed = {**angles, **self._pressed}
-        out, angles, drives = drive(trial, angles, pressed, [tg for tg, _ in targets])
+        pressed = guess(self._fingers, t, angles, {**angles, **self._pressed}, targets)
+        touching = dict(angles)
+        out, angles, drives = drive(trial, touching, pressed, targets)
+        remember(self._fingers, t, touching, drives)
         result, extra, planes, bodies = out
         for j, d in drives.items():
             self.auto_flexed[j] = {**self.auto_flexed[j], "angle": d.angle, **d.record()}
@@ -401,8 +406,8 @@ class GraspRun:
             result = dataclasses.replace(result, converged=False, stop_reason=stop)
         return result, extra, planes, bodies
 
-    def _targets(self, t: float) -> list[tuple[Target, int]]:
-        """The force-driven flexions at ``t``, each with its finger's hand part."""
+    def _targets(self, t: float) -> list[Target]:
+        """The force-driven flexions at ``t``."""
         if self.hand is None:
             return []
         out = []
@@ -414,8 +419,8 @@ class GraspRun:
                 part = self.hand.part_names.index(af.point)
             else:
                 part = int(self._parts()[af.point])
-            target = Target(af.joint, float(af.force), af.force_tolerance, limits[af.joint][1])
-            out.append((target, part))
+            lim = limits[af.joint][1]
+            out.append(Target(af.joint, float(af.force), af.force_tolerance, lim, part))
         return out
 
     def _parts(self) -> NDArray[np.int64]:
@@ -424,18 +429,6 @@ class GraspRun:
         if self._node_parts is None:
             self._node_parts = node_parts(self.hand.flesh, len(self.hand.part_names))
         return self._node_parts
-
-    def _finger_forces(
-        self, result: FrameResult, bodies: list[ElasticBody], targets: list[tuple[Target, int]]
-    ) -> dict[str, float]:
-        """Each force-driven joint's finger: its total normal contact force (N)."""
-        fields = result.contact_fields.get("hand")
-        parts = self._parts()
-        out = {}
-        for target, part in targets:
-            fn = np.zeros(parts.size) if fields is None else np.asarray(fields["normal_force"])
-            out[target.joint] = float(fn[parts == part].sum())
-        return out
 
     def _solve_pose(
         self, t: float, angles: dict[str, float], callback: Callable[[IterationRecord], None] | None

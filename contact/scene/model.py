@@ -105,7 +105,8 @@ class AutoFlex:
         A force-driven flexion (N, > 0; not with ``press``): the joint closes past first
         contact until the normal contact force on ``point``'s finger is ``force``.
     force_tolerance : float
-        Relative accuracy of that force, in (0, 0.5].
+        Relative accuracy of that force, in (0, 0.5]: about the jump of a finger's force
+        as one more node enters the contact, on the coarse hand.
     """
 
     joint: str
@@ -115,7 +116,7 @@ class AutoFlex:
     times: tuple[float, ...] | None = None
     first_contact: bool = True
     force: float | None = None
-    force_tolerance: float = 0.01
+    force_tolerance: float = 0.02
 
     def __post_init__(self) -> None:
         if isinstance(self.point, str) and self.point not in FINGERTIPS:
