@@ -75,8 +75,9 @@ def main(argv: list[str]) -> int:
     grasp = contact.grasp
     _wrap(contact.scene.read, "load_scene", "load_mesh")
     _wrap(contact.run.GraspRun, "__post_init__", "load_mesh")
-    for name in ("angles", "ball_body", "hand_body", "check_bones"):
+    for name in ("angles", "ball_body", "hand_body"):
         _wrap(contact.run.GraspRun, name, "posing")
+    _wrap(contact.run, "check_bones", "posing")
     _wrap(contact.solver.body.ElasticBody, "__init__", "assemble_factor")
     # bodies factor lazily, inside the contact iteration once their contact zone is marked
     _wrap(fem.StaticSolver, "factorize", "assemble_factor")

@@ -45,7 +45,7 @@ __all__ = ["GOAL", "REPEAT", "plain_seconds", "profile_frame", "run"]
 
 #: The goal: frame time over one factorisation and solve.
 GOAL = 2.0
-#: Runs of each small frame (the coarse hand's, the README example's); the fastest of
+#: Runs of each small frame (the coarse hand's, the bowl example's); the fastest of
 #: each side is kept.
 REPEAT = 5
 
@@ -221,7 +221,7 @@ def _example_rows(repeat: int = REPEAT) -> list[dict]:
     from contact.run import GraspRun
     from contact.scene.read import load_scene
 
-    path = Path(__file__).resolve().parents[1] / "examples" / "grasp.toml"
+    path = Path(__file__).resolve().parents[1] / "examples" / "bowl.toml"
     best: list[dict] = []
     for _ in range(repeat):
         run = GraspRun(load_scene(path))
@@ -238,7 +238,7 @@ def _example_rows(repeat: int = REPEAT) -> list[dict]:
             frame_s = time.perf_counter() - tt - res.timings.get("setup", 0.0)
             plain = plain_seconds(bodies, repeat=1)
             case = f"frame {i} (t {t:g})"
-            rows.append(_row("README example", case, bodies, res, frame_s, plain, before))
+            rows.append(_row("bowl example", case, bodies, res, frame_s, plain, before))
         if best:
             rows = [
                 _rescale(a if a["frame_s"] <= b["frame_s"] else b, min(a["plain_s"], b["plain_s"]))

@@ -7,7 +7,7 @@ Two studies, run together by ``python -m benchmarks friction [--quick]``:
    Scenes: the hand cup (:func:`benchmarks.scenes.hand_cup`, every pair at ``mu =``
    :data:`MU`), the two-pad pinch (``examples/pads.toml``: its frames in order, the last
    one timed; frictionless, the ball is held by a frictionless table 0.1 mm into its
-   bottom instead) and the README example (``examples/grasp.toml`` with ``[hand]
+   bottom instead) and the bowl example (``examples/bowl.toml`` with ``[hand]
    friction = 0.5``, every frame in order, as ``python -m contact.grasp`` solves it). The
    frame's split: geometry, compliance rows (:meth:`ContactSpace.system`: the Delassus
    operator of the normal and tangential rows), the law (the semismooth Newton solve, or
@@ -250,22 +250,22 @@ def _pinch_rows(quick: bool) -> list[dict]:
 
 
 def _example_rows(quick: bool) -> list[dict]:
-    """The README example's frames, frictionless and with ``[hand] friction = 0.5``."""
+    """The bowl example's frames, frictionless and with ``[hand] friction = 0.5``."""
     from contact.scene.read import load_scene
 
-    sc = load_scene(EXAMPLES / "grasp.toml")
+    sc = load_scene(EXAMPLES / "bowl.toml")
     assert sc.hand is not None
     fric_sc = dataclasses.replace(sc, hand=dataclasses.replace(sc.hand, friction=MU))
     free = _best_sequence(sc, REPEAT[quick])
     fric = _best_sequence(fric_sc, REPEAT[quick])
     return [
-        _pair_rows("README example", f"frame {i} (t {t:g})", a, b)
+        _pair_rows("bowl example", f"frame {i} (t {t:g})", a, b)
         for i, (t, a, b) in enumerate(zip(sc.frames, free, fric, strict=True))
     ]
 
 
 def cost_rows(quick: bool = False) -> list[dict]:
-    """Study 1: the hand cup, the pinch and (full run) the README example.
+    """Study 1: the hand cup, the pinch and (full run) the bowl example.
 
     Parameters
     ----------
@@ -486,11 +486,11 @@ def run(quick: bool = False, out: str | Path | None = None) -> list[dict]:
         (
             "Cost: a frame with friction against the same frame frictionless" + q,
             markdown_table(cost, COST_COLUMNS)
-            + f"\n\nmu = {MU:g} on every pair of the hand cup and on the README example's "
+            + f"\n\nmu = {MU:g} on every pair of the hand cup and on the bowl example's "
             "hand; the pinch's pads carry its own. Each side is the fastest of "
             f"{REPEAT[quick]} runs, taken in turn. Newton steps: the semismooth Newton "
             "solve's, summed over the frame's contact-set updates; stick and slip: closed "
-            "contacts at the end. The pinch and the README example solve their frames in "
+            "contacts at the end. The pinch and the bowl example solve their frames in "
             "order (the anchors carried) and reuse the ball's factorisation after the "
             "first frame; the hand cup's frames factor their bodies.",
         ),

@@ -3,21 +3,21 @@
 ``[[hand.auto_flexion]] force = N`` asks for the flexion of one joint at which the total
 normal contact force on its finger is ``N``. Force grows with the flexion past first
 contact (the finger presses deeper), so each joint's angle is a 1-D root of
-``F(alpha) - N``; every trial is a contact solve of the whole frame, all force-driven
-joints moved at once (each by its own search: a finger's force depends mostly on its own
-angle; where two fingers squeeze one free ball, any placement of the ball between them
-that gives both their forces is a root).
+``F(alpha) - N``; every trial is a contact solve of the whole frame.
 
-Each joint starts from two angles the geometry gives without a solve: first contact
-(force 0, a guess: the ball may have moved since it was measured) and a press of
-:data:`FIRST_PRESS` past it. After that first solve, the press is scaled as a Hertz
-contact's (``F ~ d^{3/2}``) to the target; then, per joint, the secant through its last
-two trials while its force is below the target (the force is convex in the
-press, so the secant overshoots and brackets the root), limited to :data:`GROWTH` times
-the last step, and the Illinois variant of regula falsi once the root is bracketed, with
-a bisection where that would not shrink the bracket. A joint is done when its force is
-within its ``force_tolerance`` of the target; the search stops after :data:`MAX_STEPS`
-solves, or where a joint reaches its limit short of the force.
+All force-driven joints first press :data:`FIRST_PRESS` past their first contact (the
+geometry's angle, force 0: a guess, since the ball may have moved since it was
+measured), one solve. Then, in turn, each joint whose force is off is searched alone,
+the others held (one finger's force also moves the others' where they squeeze one free
+ball: in a pinch the thumb's force follows the index's, and one search does both): its
+press past first contact scaled as a Hertz contact's (``F ~ d^{3/2}``) to the target,
+then the secant through its last two trials while the force is below the target (the
+force is convex in the press, so the secant overshoots and brackets the root), limited
+to :data:`GROWTH` times the last step, and the Illinois variant of regula falsi once the
+root is bracketed, bisecting a bracket two steps did not halve. Turns repeat until every
+force is within its ``force_tolerance``, in at most :data:`MAX_STEPS` solves a joint.
+A joint stops short where it reaches its limit, or where its force jumps across the
+target within :data:`ANGLE_RESOLUTION` (a node entering the contact).
 """
 
 from __future__ import annotations
@@ -36,8 +36,8 @@ __all__ = [
 
 #: The first trial presses each force-driven finger this far (m) past first contact.
 FIRST_PRESS = 5e-4
-#: Contact solves a frame's force-driven fingers may take.
-MAX_STEPS = 12
+#: Contact solves a frame may take for each of its force-driven joints.
+MAX_STEPS = 8
 #: The largest factor by which an extrapolated step may exceed the joint's last one.
 GROWTH = 4.0
 #: A bracket narrower than this (degrees) whose ends miss the force: the force jumps there.
@@ -97,6 +97,8 @@ class Drive:
     reason: str = ""
     _side: int = 0  # Illinois: which end of the bracket was kept last, -1 low, +1 high
     _widths: list[float] = field(default_factory=list)  # the bracket's, step by step
+    _start: int = 1  # the trials of the current search, the other joints held (from here)
+    final: tuple[float | None, float | None] = (None, None)  # the last search's bracket
 
     @property
     def angle(self) -> float:
@@ -114,13 +116,21 @@ class Drive:
         The first contact's force, 0, is a guess of the geometry (the ball may have moved
         since it was measured), never an end of the bracket.
         """
-        below = [a for a, f in self.trials[1:] if f < self.force]
-        above = [a for a, f in self.trials[1:] if f >= self.force]
+        now = self.trials[self._start :]  # the others held: a function of this angle
+        below = [a for a, f in now if f < self.force]
+        above = [a for a, f in now if f >= self.force]
         return (max(below) if below else None, min(above) if above else None)
+
+    def restart(self, angle: float, force: float) -> None:
+        """Start a new search from ``(angle, force)``: the other joints moved since."""
+        if (angle, force) != self.trials[-1]:
+            self.trials.append((angle, force))
+        self._start = len(self.trials) - 1
+        self._side, self._widths = 0, []
 
     def record(self) -> dict[str, Any]:
         """As plain JSON types."""
-        lo, hi = self.bracket()
+        lo, hi = self.final
         return {
             "joint": self.joint,
             "force": self.force,
@@ -137,7 +147,7 @@ class Drive:
 def _next(d: Drive, target: Target) -> float:
     """The next angle of one joint from its trials (see the module docstring)."""
     lo, hi = d.bracket()
-    pts = {a: f for a, f in d.trials}
+    pts = {a: f for a, f in d.trials[d._start :]}
     if lo is not None and hi is not None:
         flo, fhi = pts[lo] - target.force, pts[hi] - target.force
         # Illinois: halve the value kept at the end that did not move last time
@@ -157,12 +167,15 @@ def _next(d: Drive, target: Target) -> float:
         if not lo + inner <= a <= hi - inner:
             a = 0.5 * (lo + hi)
         return a
-    (a0, f0), (a1, f1) = d.trials[-2], d.trials[-1]
+    a1, f1 = d.trials[-1]
+    if len(d.trials) - d._start == 1:
+        # one trial: its press past first contact scaled as a Hertz contact's, F ~ d^(3/2)
+        a0 = d.trials[0][0]
+        step = max(a1 - a0, 1e-6)
+        press = step * (target.force / f1) ** (2.0 / 3.0) if f1 > 0 else GROWTH * step
+        return min(a0 + min(press, GROWTH * step), target.limit)
+    a0, f0 = d.trials[-2]
     step = a1 - a0
-    if len(d.trials) == 2 and f1 > 0:
-        # one solve: its press past first contact scaled as a Hertz contact's, F ~ d^(3/2)
-        press = step * (target.force / f1) ** (2.0 / 3.0)
-        return min(a0 + min(press, GROWTH * abs(step)), target.limit)
     if hi is None:  # every force below the target: extrapolate upwards
         slope = (f1 - f0) / step if step else 0.0
         grow = GROWTH * abs(step)
@@ -210,53 +223,64 @@ def drive(
     if max_steps < 1:
         raise ValueError(f"max_steps = {max_steps} must be at least 1")
     drives = {t.joint: Drive(t.joint, t.force, [(float(touching[t.joint]), 0.0)]) for t in targets}
-    angles = {k: float(v) for k, v in pressed.items()}
-    result, last = None, dict(angles)
-    for step in range(1, max_steps + 1):
-        last = dict(angles)
-        result, forces = solve(dict(last))
-        for t in targets:
-            drives[t.joint].trials.append((angles[t.joint], float(forces[t.joint])))
-        if all(t.reached(drives[t.joint].reached) for t in targets):
-            for d in drives.values():
-                d.converged, d.reason = True, f"force reached in {step} solve(s)"
+    last = {k: float(v) for k, v in pressed.items()}
+    result, forces = solve(dict(last))
+    solves, budget = 1, max_steps * len(targets)
+    for t in targets:
+        drives[t.joint].trials.append((last[t.joint], float(forces[t.joint])))
+    done: set[str] = set()  # joints stopped short (a limit, a jump)
+    while solves < budget:
+        off = [t for t in targets if t.joint not in done and not t.reached(forces[t.joint])]
+        if not off:
             break
-        stuck = False
-        for t in targets:
+        for t in off:
             d = drives[t.joint]
-            if t.reached(d.reached):
-                continue
-            lo, hi = d.bracket()
-            if lo is not None and hi is not None and hi - lo < ANGLE_RESOLUTION:
-                f = dict(d.trials[1:])
-                d.reason = (
-                    f"{t.joint}: its finger's force jumps from {f[lo]:.4g} N to {f[hi]:.4g} N "
-                    f"at {lo:.6g} deg (a node entering the contact): no angle gives "
-                    f"{t.force:.4g} N within {100 * t.tolerance:g} %"
-                )
-                stuck = True
-                continue
-            a = _next(d, t)
-            if a >= t.limit and d.angle >= t.limit and d.reached < t.force:
-                d.reason = (
-                    f"{t.joint} reached its limit {t.limit:g} deg with {d.reached:.4g} N "
-                    f"of {t.force:.4g} N on its finger"
-                )
-                stuck = True
-            angles[t.joint] = a
-        if stuck:
-            break
+            d.restart(last[t.joint], float(forces[t.joint]))
+            while solves < budget and not t.reached(d.reached):
+                why = _stuck(d, t)
+                if why:
+                    d.reason = why
+                    done.add(t.joint)
+                    break
+                angles = {**last, t.joint: _next(d, t)}
+                result, forces = solve(dict(angles))
+                solves += 1
+                last = angles
+                d.trials.append((last[t.joint], float(forces[t.joint])))
     for t in targets:
         d = drives[t.joint]
+        d.final = d.bracket()  # its last search's, before the frame's own force is added
+        if (last[t.joint], float(forces[t.joint])) != d.trials[-1]:
+            d.trials.append((last[t.joint], float(forces[t.joint])))
         d.converged = t.reached(d.reached)
-        if not d.converged and not d.reason:
-            lo, hi = d.bracket()
+        if d.converged:
+            d.reason = f"force reached in {solves} solve(s)"
+        elif not d.reason:
+            lo, hi = d.final
             d.reason = (
-                f"{t.joint}: {d.reached:.4g} N of {t.force:.4g} N after {len(d.trials) - 1} "
-                f"solves (angle between {lo if lo is not None else '-'} and "
+                f"{t.joint}: {d.reached:.4g} N of {t.force:.4g} N after {solves} solves "
+                f"(angle between {lo if lo is not None else '-'} and "
                 f"{hi if hi is not None else '-'} deg)"
             )
     return result, last, drives
+
+
+def _stuck(d: Drive, t: Target) -> str:
+    """Why a joint's search cannot go on (a limit reached short, a force that jumps), or ""."""
+    lo, hi = d.bracket()
+    if lo is not None and hi is not None and hi - lo < ANGLE_RESOLUTION:
+        f = dict(d.trials[d._start :])
+        return (
+            f"{t.joint}: its finger's force jumps from {f[lo]:.4g} N to {f[hi]:.4g} N at "
+            f"{lo:.6g} deg (a node entering the contact): no angle gives {t.force:.4g} N "
+            f"within {100 * t.tolerance:g} %"
+        )
+    if d.angle >= t.limit and d.reached < t.force:
+        return (
+            f"{t.joint} reached its limit {t.limit:g} deg with {d.reached:.4g} N of "
+            f"{t.force:.4g} N on its finger"
+        )
+    return ""
 
 
 def finger_forces(

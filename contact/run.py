@@ -16,7 +16,7 @@ For every frame, after Gourret, Magnenat-Thalmann and Thalmann (1989, Fig. 9):
 warm-starts the next, and friction's stick anchors of the last frame solved are where the
 next frame's slip is measured from. Frames must therefore be solved in time order when
 the scene has friction. At the scene's start it warns of a ball placed inside the skin
-or a plane (:meth:`GraspRun.warn_overlaps`). Writing the results is the caller's
+or a plane (:func:`contact.startchecks.warn_overlaps`). Writing the results is the caller's
 (:mod:`contact.grasp`).
 """
 
@@ -35,10 +35,8 @@ from numpy.typing import NDArray
 import fem
 
 from .ball import LOCKING_NOTE, LOCKING_NU, Ball, make_ball
-from .errors import InputError
 from .fingerforce import FIRST_PRESS, Target, drive, finger_forces, guess, remember
 from .geometry.plane import Plane
-from .geometry.surfacequery import TriangleSurface
 from .hand.autoflex import auto_flex, sphere_distance
 from .hand.fingers import node_parts
 from .hand.keyframes import Keyframes
@@ -50,8 +48,9 @@ from .scene.spec import Scene
 from .solver.anchors import Anchors
 from .solver.body import ElasticBody
 from .solver.iteration import solve_frame
-from .solver.pairs import ContactPair, measure
+from .solver.pairs import ContactPair
 from .solver.results import FrameResult, IterationRecord
+from .startchecks import check_bones, warn_overlaps
 
 __all__ = ["GraspRun"]
 
@@ -97,6 +96,7 @@ class GraspRun:
     anchors: Anchors | None = field(default=None, init=False)
     positions: dict[str, NDArray[np.float64]] = field(default_factory=dict, init=False)
     _last_time: float | None = field(default=None, init=False, repr=False)
+    _frame_time: float | None = field(default=None, init=False, repr=False)
     _started: bool = field(default=False, init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -175,7 +175,11 @@ class GraspRun:
         return angles
 
     def _flexions(self, t: float) -> list:
-        """The scene's automatic flexions that apply at ``t``."""
+        """The scene's automatic flexions that apply at ``t``.
+
+        A step of ``solver.substeps`` takes those of the frame it leads to.
+        """
+        t = self._frame_time if self._frame_time is not None else t
         return [
             af
             for af in self.scene.hand.auto_flexion  # type: ignore[union-attr]
@@ -265,59 +269,6 @@ class GraspRun:
         self._pose = pose
         return self._hand_body
 
-    def check_bones(self, ball: ElasticBody, t: float) -> None:
-        """Refuse a ball that starts inside a bone: its contact cannot be resolved."""
-        hand = self.hand
-        assert hand is not None and self._pose is not None
-        x = ball.mesh.points[ball.contact_nodes]
-        for name, surf in hand.bones.items():
-            tf = self._pose.transforms[name]
-            pts = np.asarray(surf.points) @ tf[:3, :3].T + tf[:3, 3]
-            tri = np.asarray(surf.faces).reshape(-1, 4)[:, 1:]
-            s = TriangleSurface(pts, tri, name=f"bone {name}")
-            lo, hi = pts.min(axis=0), pts.max(axis=0)
-            near = np.all((x >= lo) & (x <= hi), axis=1)
-            if near.any() and (s.winding_number(x[near]) > 0.5).any():
-                raise InputError(
-                    f"frame t = {t:g}: the ball starts inside bone {name}: place the ball "
-                    "or close the hand less"
-                )
-
-    def warn_overlaps(self, t: float, bodies: list[ElasticBody], tolerance: float) -> None:
-        """Warn where the ball starts inside the skin or a plane deeper than the tolerance.
-
-        Called at the scene's start (the first frame solved), before any contact solve:
-        the hand as posed there, the planes at their scene positions (their motion is how
-        a scene presses, not a misplaced ball). A node deeper than ``tolerance`` times its
-        element size (``solver.gap_tolerance``) gives one log line for its pair, naming
-        the deepest node and its depth.
-        """
-        ball = bodies[0]
-        planes = [Plane(p.point, p.normal, name=p.name) for p in self.scene.planes]
-        pairs = [ContactPair(ball, pl) for pl in planes]
-        for other in bodies[1:]:
-            pairs += [ContactPair(ball, other), ContactPair(other, ball)]
-        u = {b.name: np.zeros((b.mesh.n_points, 3)) for b in bodies}
-        for pair in pairs:
-            p, _ = measure(pair, u, 0.0)
-            if not p.nodes.size:
-                continue
-            local = np.sqrt(np.maximum(pair.slave.node_areas[p.nodes], 1e-300))
-            k = int(np.argmax(-p.gap / local))
-            if -p.gap[k] <= tolerance * local[k]:
-                continue
-            log.warning(
-                "t = %g: %s overlap at the start: node %d of %s is %.3g mm inside %s "
-                "(gap tolerance %.3g mm)",
-                t,
-                pair.name,
-                int(p.nodes[k]),
-                pair.slave.name,
-                -float(p.gap[k]) * 1e3,
-                pair.master.name,
-                tolerance * local[k] * 1e3,
-            )
-
     def restart(self, scene: Scene) -> GraspRun:
         """A run of ``scene`` (this one with other forces) that starts its history afresh.
 
@@ -367,7 +318,9 @@ class GraspRun:
         last = self._last_time
         if n > 1 and last is not None and t > last and self.scene.frictional:
             for i in range(1, n):
+                self._frame_time = t
                 self._solve(last + (t - last) * i / n, None)
+        self._frame_time = None
         self._last_time = t
         return self._solve(t, callback)
 
@@ -442,7 +395,7 @@ class GraspRun:
         extra: dict = {}
         if self.hand is not None:
             hand = self.hand_body(angles)
-            self.check_bones(ball, t)
+            check_bones(self.hand, self._pose, ball, t)  # type: ignore[arg-type]
             bodies.append(hand)
             mu = sc.friction("hand")
             pairs += [ContactPair(ball, hand, friction=mu), ContactPair(hand, ball, friction=mu)]
@@ -458,7 +411,7 @@ class GraspRun:
         settings = sc.solver.settings(self.limits)
         if not self._started:
             self._started = True
-            self.warn_overlaps(t, bodies, settings.gap_tolerance)
+            warn_overlaps(t, bodies, sc.planes, settings.gap_tolerance)
         result = solve_frame(
             bodies, pairs, planes, settings, callback=callback, anchors=self.anchors
         )

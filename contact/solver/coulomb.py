@@ -160,6 +160,8 @@ def unheld(frame, space: ContactSpace, friction: Friction, rows: ContactRows) ->
     res = solve_friction(
         w, np.zeros((w.shape[0], 0)), rhs, np.zeros(0), mu=mu, tangent=tangent
     )
+    if not res.solved:  # no answer to read the load not carried from
+        return None
     net = space.net_wrenches(g.T @ res.lam - c)  # what the springs hold
     worst: Slip | None = None
     for body in frame.bodies:

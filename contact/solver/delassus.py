@@ -200,7 +200,7 @@ class ContactSpace:
         row sees (:meth:`gauged`).
         """
         m = lam.size
-        a = self.gauged(e, m, a)
+        a = self.gauged(e, lam, a)
         states = {}
         k = 0
         for body in self.bodies:
@@ -219,16 +219,24 @@ class ContactSpace:
             states[pl.name] = BodyState(pl.normal * float(s[0]), np.zeros(3), s.copy())
         return states
 
-    def gauged(self, e: dict[str, sp.csr_matrix], m: int, a: NDArray[np.float64]) -> NDArray:
-        """``a`` less its part along the modes that move no row (with force-driven planes).
+    def gauged(
+        self, e: dict[str, sp.csr_matrix], lam: NDArray[np.float64], a: NDArray[np.float64]
+    ) -> NDArray:
+        """``a`` less its part along the modes that move no row that carries a force.
 
         A ball squeezed by two force-driven pads moves with them along their normals
-        without changing a gap: that motion is not determined by the contacts, and the
-        least one (the bodies and planes where the frame started) is taken.
+        without changing a gap, and a ball held by friction at two points turns freely
+        about the line through them: such motions are not determined by the contacts that
+        push or grip (an open row only asks not to close), and the least one (the bodies
+        and planes where the frame started) is taken. Only with
+        all six modes (friction) or force-driven planes: the frictionless placing modes'
+        free slides are how a body that is not held shows.
         """
-        if not self.planes or not a.size or not m:
+        m = lam.size
+        act = lam != 0
+        if not (self.planes or self.rotations) or not a.size or not act.any():
             return a
-        g = self.system_modes(e, m)
+        g = self.system_modes(e, m)[act]
         _, sv, vt = np.linalg.svd(g, full_matrices=True)
         rank = int((sv > RANK_TOL * sv.max()).sum()) if sv.size and sv.max() > 0 else 0
         null = vt[rank:]

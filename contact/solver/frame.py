@@ -440,6 +440,9 @@ class FrameState:
                     f"{deepest[0]:.3g} of its element size (tolerance "
                     f"{self.settings.gap_tolerance:g})"
                 )
+        spun = held.turned(self.bodies, states)
+        if spun and converged:
+            converged, stop = False, spun
         over = self.over_limit(supports)
         if over and converged:
             converged = False

@@ -213,7 +213,9 @@ class _Problem:
                 ts, ps, qs = t[sl], fr[sl], q[sl]
                 lt = s["lt"][sl]
                 size = np.linalg.norm(lt, axis=1)
-                shrink = np.minimum(1.0, radius[sl] / np.maximum(size, 1e-300))
+                big = size > radius[sl]
+                shrink = np.ones(sl.size)
+                shrink[big] = radius[sl][big] / size[big]
                 cone = lt * shrink[:, None]
                 amat = cone[:, :, None] * qs[:, None, :] - radius[sl, None, None] * np.eye(2)
                 amat /= nz[sl, None, None]

@@ -25,6 +25,7 @@ from .delassus import BodyState
 __all__ = [
     "HELD_COS",
     "JUMP",
+    "MAX_TURN",
     "SLIDES",
     "end_gaps",
     "free_load",
@@ -32,6 +33,7 @@ __all__ = [
     "slides",
     "slipping",
     "touches_nothing",
+    "turned",
     "unbalanced",
 ]
 
@@ -46,6 +48,9 @@ SLIDES = 3
 #: A body that slid is held when the unit slide direction keeps at least this length
 #: in the span of the normals of the rows that push it.
 HELD_COS = 0.5
+#: The largest rigid rotation (rad) of a free body that the linear, small-rotation model
+#: describes: a rotation ``theta`` stretches the body by about ``theta^2 / 2`` (0.5 % here).
+MAX_TURN = 0.1
 
 
 def slides(
@@ -207,3 +212,32 @@ def holds(
         if np.linalg.norm(span @ (move / dist)) < HELD_COS:
             return False
     return True
+
+
+def turned(bodies: Sequence[ElasticBody], states: Mapping[str, BodyState]) -> str:
+    """The stop reason of a free body turned past :data:`MAX_TURN`, or "" if none.
+
+    The rigid part of its displacement, ``t + omega x r`` about its centroid, fitted to its
+    rigid-mode amplitudes: past ``MAX_TURN`` the linearised rotation stretches the body
+    and its forces describe no real state (a ball spun by one frictional contact on a
+    frictionless table), whatever the contact set did.
+    """
+    worst = (0.0, "")
+    for b in bodies:
+        rigid = states[b.name].rigid
+        if not (b.solver.free_body and rigid.size):
+            continue
+        v = (b.solver.modes @ rigid).reshape(-1, 3)
+        r = b.mesh.points - b.mesh.points.mean(axis=0)
+        j = (r * r).sum() * np.eye(3) - r.T @ r
+        omega = np.linalg.solve(j, np.cross(r, v - v.mean(axis=0)).sum(axis=0))
+        angle = float(np.linalg.norm(omega))
+        if angle > max(MAX_TURN, worst[0]):
+            worst = (angle, b.name)
+    if not worst[1]:
+        return ""
+    return (
+        f"{worst[1]} turned {np.degrees(worst[0]):.3g} deg, past the "
+        f"{np.degrees(MAX_TURN):.3g} deg that the linear (small-rotation) model describes: "
+        "its contacts hardly hold its rotation"
+    )

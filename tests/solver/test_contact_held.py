@@ -15,10 +15,11 @@ from contact.run import GraspRun
 from contact.scene.read import load_scene
 from contact.solver import ContactRows, ContactSettings, FrameState, solve_frame
 from contact.solver.body import ElasticBody
+from contact.solver.delassus import BodyState
 from contact.solver.pairs import ContactPair
 
 ROOT = Path(__file__).resolve().parents[2]
-EXAMPLE = (ROOT / "examples" / "grasp.toml").read_text()
+EXAMPLE = (ROOT / "examples" / "bowl.toml").read_text()
 
 
 def frame(tmp_path, name, text, t=1.0):
@@ -212,3 +213,19 @@ def test_what_the_ball_nearly_touches_gets_open_rows_in_the_first_set(name):
     assert not np.isin(beyond, mine).any()
     assert np.isin(plain.node[plain.pair == i], mine).all()
     assert (near.pair == i).sum() > (plain.pair == i).sum()
+
+
+@pytest.mark.parametrize("angle", [0.05, 0.2])
+def test_a_ball_turned_past_small_rotations_is_not_a_result(angle):
+    # the rigid part of a free ball's displacement: a turn about z (and a shift); past
+    # MAX_TURN the linearised rotation stretches the ball and the frame says so
+    ball = pad_scene()[0][0]
+    x = ball.mesh.points - ball.mesh.points.mean(axis=0)
+    u = np.cross([0.0, 0.0, angle], x) + np.array([0.001, 0.0, 0.0])
+    rigid = ball.solver.modes.T @ u.ravel()  # orthonormal modes: the amplitudes
+    state = BodyState(u.ravel(), np.zeros(u.size), rigid)
+    reason = held.turned([ball], {"ball": state})
+    if angle < held.MAX_TURN:
+        assert reason == ""
+    else:
+        assert reason.startswith(f"ball turned {np.degrees(angle):.3g} deg, past the 5.73 deg")

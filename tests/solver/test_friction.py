@@ -288,12 +288,12 @@ def _moment(points, forces, about):
 
 
 def test_a_frictional_hand_holds_the_example_ball_in_balance(tmp_path):
-    # the README example with skin friction 0.5: two-way rows between skin and ball, a
+    # the bowl example with skin friction 0.5: two-way rows between skin and ball, a
     # frictionless bowl; every frame held, the ball in balance in force and moment
-    text = (ROOT / "examples" / "grasp.toml").read_text().replace(
+    text = (ROOT / "examples" / "bowl.toml").read_text().replace(
         "[hand]\n", "[hand]\nfriction = 0.5\n", 1
     )
-    path = tmp_path / "grasp.toml"
+    path = tmp_path / "bowl.toml"
     path.write_text(text)
     run = GraspRun(load_scene(path))
     for t in (0.0, 0.5, 1.0):

@@ -1,0 +1,82 @@
+"""A scene's start: a ball inside a bone is refused, one inside the skin or a plane warned of."""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Sequence
+
+import numpy as np
+
+from .errors import InputError
+from .geometry.plane import Plane
+from .geometry.surfacequery import TriangleSurface
+from .hand.posing import Pose
+from .hand.shipped import Hand
+from .scene.model import PlaneScene
+from .solver.body import ElasticBody
+from .solver.pairs import ContactPair, measure
+
+__all__ = ["check_bones", "warn_overlaps"]
+
+log = logging.getLogger(__name__)
+
+
+def check_bones(hand: Hand, pose: Pose, ball: ElasticBody, t: float) -> None:
+    """Refuse a ball that starts inside a bone of the posed hand: its contact cannot be resolved.
+
+    Raises
+    ------
+    InputError
+        Naming the frame and the bone.
+    """
+    x = ball.mesh.points[ball.contact_nodes]
+    for name, surf in hand.bones.items():
+        tf = pose.transforms[name]
+        pts = np.asarray(surf.points) @ tf[:3, :3].T + tf[:3, 3]
+        tri = np.asarray(surf.faces).reshape(-1, 4)[:, 1:]
+        s = TriangleSurface(pts, tri, name=f"bone {name}")
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        near = np.all((x >= lo) & (x <= hi), axis=1)
+        if near.any() and (s.winding_number(x[near]) > 0.5).any():
+            raise InputError(
+                f"frame t = {t:g}: the ball starts inside bone {name}: place the ball "
+                "or close the hand less"
+            )
+
+
+def warn_overlaps(
+    t: float, bodies: Sequence[ElasticBody], planes: Sequence[PlaneScene], tolerance: float
+) -> None:
+    """Warn where the ball starts inside the skin or a plane deeper than the tolerance.
+
+    Called at the scene's start (the first frame solved), before any contact solve: the
+    hand as posed there, the planes at their scene positions (their motion is how a scene
+    presses, not a misplaced ball). A node deeper than ``tolerance`` times its element
+    size (``solver.gap_tolerance``) gives one log line for its pair, naming the deepest
+    node and its depth.
+    """
+    ball = bodies[0]
+    at_rest = [Plane(p.point, p.normal, name=p.name) for p in planes]
+    pairs = [ContactPair(ball, pl) for pl in at_rest]
+    for other in bodies[1:]:
+        pairs += [ContactPair(ball, other), ContactPair(other, ball)]
+    u = {b.name: np.zeros((b.mesh.n_points, 3)) for b in bodies}
+    for pair in pairs:
+        p, _ = measure(pair, u, 0.0)
+        if not p.nodes.size:
+            continue
+        local = np.sqrt(np.maximum(pair.slave.node_areas[p.nodes], 1e-300))
+        k = int(np.argmax(-p.gap / local))
+        if -p.gap[k] <= tolerance * local[k]:
+            continue
+        log.warning(
+            "t = %g: %s overlap at the start: node %d of %s is %.3g mm inside %s "
+            "(gap tolerance %.3g mm)",
+            t,
+            pair.name,
+            int(p.nodes[k]),
+            pair.slave.name,
+            -float(p.gap[k]) * 1e3,
+            pair.master.name,
+            tolerance * local[k] * 1e3,
+        )
