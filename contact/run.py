@@ -43,6 +43,7 @@ from .hand.keyframes import Keyframes
 from .hand.objects import ObjectAssociation
 from .hand.posing import HandPoser, Pose
 from .hand.shipped import load_hand
+from .rolling import MAX_ROLLS, ROLL, rigid_part, turned_placement
 from .scene.model import PlaneScene
 from .scene.spec import Scene
 from .solver.anchors import Anchors
@@ -97,6 +98,8 @@ class GraspRun:
     positions: dict[str, NDArray[np.float64]] = field(default_factory=dict, init=False)
     _last_time: float | None = field(default=None, init=False, repr=False)
     _frame_time: float | None = field(default=None, init=False, repr=False)
+    # a free ball's placement anew after it rolled (contact.rolling), on its scene placement
+    _roll: NDArray[np.float64] = field(default_factory=lambda: np.eye(4), init=False, repr=False)
     _started: bool = field(default=False, init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -195,7 +198,7 @@ class GraspRun:
         return assoc.transform(self.hand.skeleton, self.keyframes.pose, t)  # type: ignore[union-attr]
 
     def _ball_centre(self, t: float) -> NDArray[np.float64]:
-        tf = self.ball_transform(t)
+        tf = self._roll @ self.ball_transform(t)
         return tf[:3, :3] @ np.asarray(self.ball.spec.center, float) + tf[:3, 3]
 
     def ball_body(self, t: float) -> ElasticBody:
@@ -203,7 +206,7 @@ class GraspRun:
 
         Its loads: its own (pressure), gravity, and ``ball.load`` at ``t``.
         """
-        tf = self.ball_transform(t)
+        tf = self._roll @ self.ball_transform(t)
         key = np.round(tf[:3, :3], 12).tobytes()
         x = self.ball.mesh.points @ tf[:3, :3].T + tf[:3, 3]
         if self._ball_body is None or key != self._ball_key:
@@ -279,6 +282,7 @@ class GraspRun:
         out.__dict__.update(self.__dict__)
         out.scene = scene
         out.anchors = None
+        out._roll = np.eye(4)
         out._last_time = None
         out._started = False
         out.positions = {}
@@ -337,10 +341,11 @@ class GraspRun:
         if not targets:
             return self._solve_pose(t, angles, callback)
         # every trial from the same history, its flesh relaxed from the same pose
-        kept = (self.anchors, dict(self.positions), self._pose)
+        kept = (self.anchors, dict(self.positions), self._pose, self._roll)
 
         def trial(pose: dict[str, float]) -> tuple[tuple, dict[str, float]]:
             self.anchors, self.positions, self._pose = kept[0], dict(kept[1]), kept[2]
+            self._roll = kept[3]
             out = self._solve_pose(t, pose, callback)
             return out, finger_forces(out[0].contact_fields.get("hand"), self._parts(), targets)
 
@@ -386,7 +391,51 @@ class GraspRun:
     def _solve_pose(
         self, t: float, angles: dict[str, float], callback: Callable[[IterationRecord], None] | None
     ) -> tuple[FrameResult, dict, list[Plane], list[ElasticBody]]:
-        """Set up and solve the contact at time ``t`` with the hand at ``angles``."""
+        """Solve the contact at time ``t`` with the hand at ``angles``.
+
+        A free ball that turns past :data:`contact.rolling.ROLL` is placed anew, turned
+        and moved by its rigid motion, and the frame solved again from the same history.
+        """
+        before = (self.anchors, dict(self.positions))
+        out = self._solve_placed(t, angles, callback)
+        best: tuple[float, tuple, NDArray[np.float64]] | None = None
+        for _ in range(MAX_ROLLS if self.scene.follow is None else 0):
+            result, ball = out[0], out[3][0]
+            settled = result.converged or result.stop_reason.startswith("ball turned")
+            move, omega = rigid_part(ball.mesh.points, result.displacement["ball"])
+            turn = float(np.linalg.norm(omega))
+            if not settled:
+                break  # a ball not held is where a soft spring left it: no placement
+            if best is not None and turn > 0.5 * best[0]:
+                break  # placed anew, it turns about as much again (a pivot friction hardly holds)
+            best = (turn, out, self._roll)
+            if turn <= ROLL:
+                break
+            log.info(
+                "t = %g: the ball turned %.3g deg: placed anew and solved again",
+                t, np.degrees(turn),
+            )  # fmt: skip
+            self._roll = turned_placement(ball.mesh.points, move, omega) @ self._roll
+            # the same history: the frame starts where the ball was (at rest, first frame)
+            start = before[0] or Anchors(
+                displacement={"ball": np.zeros_like(ball.mesh.points)},
+                reference={"ball": ball.mesh.points.copy()},
+            )
+            self.anchors, self.positions = start, dict(before[1])
+            out = self._solve_placed(t, angles, callback)
+        if best is not None and best[1] is not out:
+            # the placement that left the least turn: its state is the history carried on
+            out, self._roll = best[1], best[2]
+            self.anchors = out[0].anchors  # type: ignore[assignment]
+            self.positions.update(
+                {p.name: out[0].plane_positions[p.name] for p in self.scene.planes if p.driven}
+            )
+        return out
+
+    def _solve_placed(
+        self, t: float, angles: dict[str, float], callback: Callable[[IterationRecord], None] | None
+    ) -> tuple[FrameResult, dict, list[Plane], list[ElasticBody]]:
+        """Set up and solve the contact at time ``t``, the ball where it is placed now."""
         sc = self.scene
         t0 = time.perf_counter()
         ball = self.ball_body(t)

@@ -7,6 +7,7 @@ facet and barycentric weights, or a point of a plane, which moves with the plane
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -40,6 +41,8 @@ class Anchors:
         Each plane's motion ``(3,)`` at the end of the frame: a contact the next frame
         meets against a plane is anchored at the plane's material point under the node
         at the step's start.
+    reference : dict of str to ndarray
+        Each body's reference points ``(N, 3)`` that ``displacement`` is measured from.
     """
 
     pair: NDArray = field(default_factory=lambda: np.zeros(0, dtype=object))
@@ -49,6 +52,23 @@ class Anchors:
     point: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)))
     displacement: dict[str, NDArray[np.float64]] = field(default_factory=dict)
     motion: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+    reference: dict[str, NDArray[np.float64]] = field(default_factory=dict)
 
     def __len__(self) -> int:
         return int(self.node.size)
+
+    def displaced(self, bodies: Sequence) -> dict[str, NDArray[np.float64]]:
+        """Each body's displacement at the end, from the reference it has now.
+
+        Where its nodes were: ``x_then + u - x_now`` for a body placed anew since (a free
+        ball whose roll was taken into its placement, a ball that follows a joint); a body
+        whose mesh changed (another number of nodes) is left out.
+        """
+        out = {}
+        for b in bodies:
+            u = self.displacement.get(b.name)
+            if u is None or u.shape != (b.mesh.n_points, 3):
+                continue
+            then = self.reference.get(b.name)
+            out[b.name] = u if then is None else then + u - b.mesh.points
+        return out

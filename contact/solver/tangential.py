@@ -57,12 +57,7 @@ def friction_zone(frame, anchors: Anchors | None) -> tuple[dict, dict]:
     """
     if anchors is None or not any(p.friction > 0 for p in frame.pairs):
         return {}, {}
-    start = {
-        b.name: anchors.displacement[b.name]
-        for b in frame.bodies
-        if b.name in anchors.displacement
-        and anchors.displacement[b.name].shape == (b.mesh.n_points, 3)
-    }
+    start = anchors.displaced(frame.bodies)
     extra: dict[str, list[NDArray[np.int64]]] = {}
     index = {p.name: p for p in frame.pairs}
     for name in np.unique(anchors.pair) if len(anchors) else ():
@@ -103,7 +98,7 @@ class Friction:
 
     def __init__(self, frame, anchors: Anchors | None = None) -> None:
         self.frame = frame
-        self.previous = {} if anchors is None else anchors.displacement
+        self.previous = {} if anchors is None else anchors.displaced(frame.bodies)
         self.motion = {} if anchors is None else anchors.motion
         self.base = np.array([float(p.friction) for p in frame.pairs])
         self.mu = self.base.copy()  # as solved: one side of each couple (see one_way)
@@ -388,4 +383,5 @@ def end_anchors(
         point=points,
         displacement={name: np.array(v, dtype=np.float64) for name, v in u.items()},
         motion=frame.driven.positions(),
+        reference={b.name: b.mesh.points.copy() for b in frame.bodies},
     )
