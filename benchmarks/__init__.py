@@ -23,6 +23,7 @@ BENCHMARKS = (
     "lcp",
     "frame",
     "friction",
+    "holding",
     "posing",
     "sfepy_hertz",
 )

@@ -235,7 +235,11 @@ def _record(monkeypatch: pytest.MonkeyPatch) -> list[dict]:
         calls.append(
             {"pairs": {p.name: p.friction for p in pairs}, "anchors": anchors, "token": token}
         )
-        return SimpleNamespace(timings={}, anchors=token)
+        # a frame that stopped, the ball where it was: nothing to place anew
+        u = {b.name: np.zeros((b.mesh.n_points, 3)) for b in bodies}
+        return SimpleNamespace(
+            timings={}, anchors=token, converged=False, stop_reason="", displacement=u
+        )
 
     monkeypatch.setattr(contact.run, "solve_frame", fake)
     return calls

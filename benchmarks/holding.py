@@ -1,0 +1,148 @@
+"""The least grip that holds: its accuracy on the pads, its cost and its trend on the pinch.
+
+``python -m benchmarks holding`` runs ``--least-grip``'s search
+(:func:`contact.leastgrip.least_grip`) from each scene's own run, as the command line
+does, and counts what it costs:
+
+- the pads (``examples/pads.toml``): two force-driven frictional pads, gravity along them;
+  the least grip per pad against ``m g / (2 mu)`` (the goal: within 1 %);
+- the hand's pinch (``examples/pinch.toml``, full run only): the index force-driven; its
+  trials, frame solves and contact solves (each frame solve is a force-driven finger's
+  search, several contact solves; the goal: about 12 contact solves of the frame), and
+  the least grip with the ball's mass doubled (the goal: 1.8 to 2.2 times).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from pathlib import Path
+from typing import Any
+
+import contact.run
+from contact.leastgrip import judge, least_grip
+from contact.run import GraspRun
+from contact.scene.read import load_scene
+
+from ._common import Column, machine_info, markdown_table, results_dir, write_csv, write_markdown
+
+__all__ = ["run"]
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+#: The pinch's contact solves that the goal allows for the whole search.
+SOLVE_GOAL = 12
+
+COLUMNS = (
+    Column("scene", "scene"),
+    Column("case", "case"),
+    Column("trials", "trials", "d"),
+    Column("frame_solves", "frame solves", "d"),
+    Column("contact_solves", "contact solves", "d"),
+    Column("seconds", "s", ".1f"),
+    Column("scale", "least grip (scale)", ".4f"),
+    Column("bracket", "bracket"),
+    Column("forces", "per pad or finger (N)"),
+    Column("exact", "exact (N)", ".4f"),
+    Column("error", "error", ".2%"),
+)
+
+
+def _search(scene: Any, name: str, case: str) -> dict[str, Any]:
+    """The scene's own run, then the search from it, counting contact solves."""
+    calls = [0]
+    solve = contact.run.solve_frame
+
+    def counted(*args: Any, **kw: Any) -> Any:
+        calls[0] += 1
+        return solve(*args, **kw)
+
+    contact.run.solve_frame = counted
+    try:
+        run = GraspRun(scene)
+        times = list(scene.frames)
+        own = [run.frame(t)[0] for t in times]
+        before = calls[0]
+        t0 = time.perf_counter()
+        own_trial = judge(1.0, own, times, scene)
+        first = dataclasses.replace(own_trial, solves=0)  # the scene's own run, reused
+        found = least_grip(run, times, first=first)
+        seconds = time.perf_counter() - t0
+    finally:
+        contact.run.solve_frame = solve
+    lo, hi = found.lo, found.hi
+    return {
+        "scene": name,
+        "case": case,
+        "trials": found.steps,
+        "frame_solves": found.solves,
+        "contact_solves": calls[0] - before,
+        "seconds": seconds,
+        "scale": found.scale,
+        "bracket": f"{lo:.4f} .. {hi:.4f}" if lo is not None and hi is not None else "-",
+        "forces": ", ".join(f"{k} {v:.4g}" for k, v in found.forces.items()),
+        "found": found.found,
+    }
+
+
+def _pads() -> dict[str, Any]:
+    scene = load_scene(EXAMPLES / "pads.toml")
+    row = _search(scene, "pads", "mu 0.5, gravity along the pads")
+    run = GraspRun(scene)
+    weight = float(-run.ball_body(scene.frames[0]).loads.reshape(-1, 3).sum(axis=0)[2])
+    mu = scene.friction(scene.planes[0].name)
+    exact = weight / (2 * mu)
+    # the search holds every frame: the first frame's force decides (the ramp rises)
+    first = scene.planes[0].force_at(scene.frames[0]) * row["scale"]
+    row.update(exact=exact, error=abs(first - exact) / exact)
+    return row
+
+
+def _pinch() -> list[dict[str, Any]]:
+    scene = load_scene(EXAMPLES / "pinch.toml")
+    rows = [_search(scene, "hand pinch", "its own ball")]
+    heavy = dataclasses.replace(
+        scene, ball=dataclasses.replace(scene.ball, density=2.0 * scene.ball.density)
+    )
+    rows.append(_search(heavy, "hand pinch", "the ball's mass doubled"))
+    return rows
+
+
+def run(quick: bool = False, out: str | None = None) -> list[dict[str, Any]]:
+    """Run the study; write ``holding.csv`` and ``holding.md``; return the rows."""
+    folder = results_dir(out, quick)
+    rows = [_pads()] + ([] if quick else _pinch())
+    keys = [c.key for c in COLUMNS] + ["found"]
+    write_csv(folder / "holding.csv", rows, keys)
+    pads = rows[0]
+    goals = [
+        f"- Pads: least grip per pad {pads['error']:.2%} off `m g / (2 mu)` (goal 1 %): "
+        f"{'met' if pads['error'] <= 0.01 else '**missed**'}."
+    ]
+    if not quick:
+        own, heavy = rows[1], rows[2]
+        ratio = heavy["scale"] / own["scale"] if own["scale"] and heavy["scale"] else None
+        goals.append(
+            f"- Pinch: {own['contact_solves']} contact solves in {own['frame_solves']} frame "
+            f"solves and {own['trials']} trials, {own['seconds']:.1f} s (goal about "
+            f"{SOLVE_GOAL} contact solves): "
+            f"{'met' if own['contact_solves'] <= SOLVE_GOAL else '**missed**'}."
+        )
+        goals.append(
+            f"- Pinch, mass doubled: least grip x{ratio:.3f} (goal 1.8 to 2.2): "
+            f"{'met' if ratio and 1.8 <= ratio <= 2.2 else '**missed**'}."
+            if ratio
+            else "- Pinch, mass doubled: no least grip found: **missed**."
+        )
+    sections = [
+        ("Goals", "\n".join(goals)),
+        ("Searches", markdown_table(rows, COLUMNS)),
+        (
+            "How",
+            "Each search starts from the scene's own run (trial 1, not counted) as "
+            "`--least-grip` does. A contact solve is one `solve_frame`: a force-driven "
+            "finger's search takes several per frame solve, and a ball that rolls is "
+            "placed anew and solved again.",
+        ),
+    ]
+    write_markdown(folder / "holding.md", "The least grip that holds", machine_info(), sections)
+    return rows

@@ -1,0 +1,58 @@
+"""The hand's pinch: thumb and index hold a free ball against its weight by friction."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from contact.grasp import main
+from contact.rolling import rigid_part
+from contact.run import GraspRun
+from contact.scene import load_scene
+from contact.solver.held import MAX_TURN
+
+ROOT = Path(__file__).resolve().parents[1]
+PINCH = ROOT / "examples" / "pinch.toml"
+
+
+def test_the_pinch_holds_its_ball_with_the_index_force_asked() -> None:
+    run = GraspRun(load_scene(PINCH))
+    res, extra, _, bodies = run.frame(0.5)
+    assert res.converged and res.held, res.stop_reason
+    index = extra["auto_flexion"]["index_pip"]
+    assert index["converged"] and abs(index["reached"] - 0.3) <= 0.02 * 0.3
+    ball = bodies[0]
+    # the ball in balance: weight and contact forces, in force and moment
+    f = res.contact_force["ball"] + ball.loads.reshape(-1, 3)
+    scale = np.abs(res.contact_force["ball"]).sum()
+    assert np.abs(f.sum(axis=0)).max() <= 1e-9 * scale
+    c = ball.mesh.points.mean(axis=0)
+    assert np.abs(np.cross(ball.mesh.points - c, f).sum(axis=0)).max() <= 1e-9 * scale * 0.0125
+    # friction carries the weight: the pinch axis is nearly horizontal
+    weight = -ball.loads.reshape(-1, 3).sum(axis=0)[2]
+    assert res.friction is not None and res.friction.max_cone_use <= 1 + 1e-12
+    assert res.total_contact_force("ball")[2] == pytest.approx(weight, rel=1e-9)
+    # what turn is left to the linear model is small: the ball placed anew where it rolled
+    _, omega = rigid_part(ball.mesh.points, res.displacement["ball"])
+    assert np.linalg.norm(omega) <= MAX_TURN
+
+
+@pytest.mark.slow
+def test_the_least_grip_grows_with_the_ball_s_mass(tmp_path: Path) -> None:
+    found = {}
+    for density in (1100.0, 2200.0):
+        text = PINCH.read_text().replace("density = 1100.0", f"density = {density}")
+        out = tmp_path / str(density)
+        text = text.replace('directory = "results/pinch"', f'directory = "{out.as_posix()}"')
+        path = tmp_path / f"pinch_{density:g}.toml"
+        path.write_text(text)
+        assert main([str(path), "--quiet", "--no-pictures", "--least-grip"]) == 0
+        summary = json.loads((out / "summary.json").read_text())
+        grip = summary["least_grip"]
+        lo, hi = grip["bracket"]
+        assert grip["found"] and lo < hi and (hi - lo) / hi <= 0.01
+        found[density] = grip["scale"]
+    assert 1.8 <= found[2200.0] / found[1100.0] <= 2.2
