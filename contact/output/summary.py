@@ -59,7 +59,8 @@ def verdict(result: FrameResult) -> dict[str, Any]:
     dict
         ``{"realistic": bool, "reason": str}``; the reason names every bone over its
         limit with its force and limit, else the stop reason of a solve that did not
-        converge, else ``"converged; every bone under its limit"``.
+        converge, else ``"converged; every bone under its limit"`` (with ``"held"`` where a
+        free body is held).
     """
     if result.over_limit:
         parts = [
@@ -69,6 +70,8 @@ def verdict(result: FrameResult) -> dict[str, Any]:
         return {"realistic": False, "reason": "; ".join(parts)}
     if not result.converged:
         return {"realistic": False, "reason": f"not converged: {result.stop_reason}"}
+    if result.held:
+        return {"realistic": True, "reason": "converged; held; every bone under its limit"}
     return {"realistic": True, "reason": "converged; every bone under its limit"}
 
 
