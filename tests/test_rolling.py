@@ -64,3 +64,52 @@ def test_the_history_is_where_the_nodes_were_from_a_new_placement(points):
     # no reference kept: as it was; another mesh (node count): left out
     assert Anchors(displacement={"ball": u}).displaced([_Body("ball", anew)])["ball"] is u
     assert anchors.displaced([_Body("ball", anew[:-1])]) == {}
+
+
+ROLLED = """\
+[scene]
+gravity = [0.0, 0.0, -9.81]
+
+[ball]
+radius = 0.02
+element = "hex"
+mesh_size = 0.004
+material = {{ E = 1.0e6, nu = 0.45, density = 1100.0 }}
+
+[[plane]]
+name = "table"
+point = [0.0, 0.0, -0.02]
+normal = [0.0, 0.0, 1.0]
+
+[[plane]]
+name = "wall"
+point = [-0.014142, 0.0, 0.014142]
+normal = [0.70711, 0.0, -0.70711]
+offsets = [[0.0, 0.0, 0.0, 0.0], [1.0, 0.0002, 0.0, -0.0002]]
+friction = 0.8
+
+[frames]
+times = [0.5, 1.0]
+
+[output]
+directory = "{out}"
+pictures = false
+"""
+
+
+def test_a_ball_a_gripping_wall_rolls_on_a_frictionless_table(tmp_path) -> None:
+    # the wall grips the ball (friction) and presses it down and sideways onto a table
+    # that gives no friction: the ball turns, and every contact stays where it belongs
+    from contact.run import GraspRun
+    from contact.scene import load_scene
+
+    path = tmp_path / "rolled.toml"
+    path.write_text(ROLLED.format(out=(tmp_path / "out").as_posix()))
+    run = GraspRun(load_scene(path))
+    for t in (0.5, 1.0):
+        res, _, _, bodies = run.frame(t)
+        assert res.converged and res.held, res.stop_reason
+        assert res.penetration_ratio <= 1e-3
+        ball = bodies[0]
+        f = res.contact_force["ball"] + ball.loads.reshape(-1, 3)
+        assert np.abs(f.sum(axis=0)).max() <= 1e-9 * np.abs(res.contact_force["ball"]).sum()

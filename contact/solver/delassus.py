@@ -192,15 +192,19 @@ class ContactSpace:
         )
 
     def states(
-        self, e: dict[str, sp.csr_matrix], lam: NDArray[np.float64], a: NDArray[np.float64]
+        self,
+        e: dict[str, sp.csr_matrix],
+        lam: NDArray[np.float64],
+        a: NDArray[np.float64],
+        bound: NDArray[np.bool_] | None = None,
     ) -> dict[str, BodyState]:
         """Every body's state under contact forces ``lam`` and rigid-mode amplitudes ``a``.
 
-        With force-driven planes, the amplitudes are first taken least along the modes no
-        row sees (:meth:`gauged`).
+        The amplitudes are first taken least along the modes no binding row sees
+        (:meth:`gauged`, with ``bound``).
         """
         m = lam.size
-        a = self.gauged(e, lam, a)
+        a = self.gauged(e, lam, a, bound)
         states = {}
         k = 0
         for body in self.bodies:
@@ -220,20 +224,26 @@ class ContactSpace:
         return states
 
     def gauged(
-        self, e: dict[str, sp.csr_matrix], lam: NDArray[np.float64], a: NDArray[np.float64]
+        self,
+        e: dict[str, sp.csr_matrix],
+        lam: NDArray[np.float64],
+        a: NDArray[np.float64],
+        bound: NDArray[np.bool_] | None = None,
     ) -> NDArray:
-        """``a`` less its part along the modes that move no row that carries a force.
+        """``a`` less its part along the modes that move no row that binds.
+
+        ``bound``: the rows that bind (every normal row, open ones too: they must stay
+        open; a closed contact's tangential rows); default every row.
 
         A ball squeezed by two force-driven pads moves with them along their normals
         without changing a gap, and a ball held by friction at two points turns freely
-        about the line through them: such motions are not determined by the contacts that
-        push or grip (an open row only asks not to close), and the least one (the bodies
-        and planes where the frame started) is taken. Only with
+        about the line through them: such motions are not determined by the contacts, and
+        the least one (the bodies and planes where the frame started) is taken. Only with
         all six modes (friction) or force-driven planes: the frictionless placing modes'
         free slides are how a body that is not held shows.
         """
         m = lam.size
-        act = lam != 0
+        act = np.ones(m, dtype=bool) if bound is None else np.asarray(bound, dtype=bool)
         if not (self.planes or self.rotations) or not a.size or not act.any():
             return a
         g = self.system_modes(e, m)[act]

@@ -266,7 +266,12 @@ class Friction:
                 self.mu = chosen
                 break
         self.system = (sys_, mu, tangent)
-        return res, space.states(e, res.lam, res.a), e, full, tangent
+        # the rows that bind: every normal row, a closed contact's tangential rows
+        bound = np.zeros(len(full), dtype=bool)
+        bound[: len(rows)] = True
+        grip = (res.status > 0) & (tangent[:, 0] >= 0)
+        bound[tangent[grip].ravel()] = True
+        return res, space.states(e, res.lam, res.a, bound), e, full, tangent
 
     def _start(
         self,
