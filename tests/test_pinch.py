@@ -49,7 +49,8 @@ def test_the_least_grip_grows_with_the_ball_s_mass(tmp_path: Path) -> None:
         text = text.replace('directory = "results/pinch"', f'directory = "{out.as_posix()}"')
         path = tmp_path / f"pinch_{density:g}.toml"
         path.write_text(text)
-        assert main([str(path), "--quiet", "--no-pictures", "--least-grip"]) == 0
+        # the heavier ball may slip at the scene's own grip (exit 1): the search goes on
+        assert main([str(path), "--quiet", "--no-pictures", "--least-grip"]) in (0, 1)
         summary = json.loads((out / "summary.json").read_text())
         grip = summary["least_grip"]
         lo, hi = grip["bracket"]
