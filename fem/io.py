@@ -31,6 +31,7 @@ from __future__ import annotations
 import logging
 import os
 import uuid
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -168,7 +169,11 @@ def _read_raw(path: Path, file_format: str | None) -> tuple[Any, str]:
     for fmt in _formats(path, file_format):
         reader = readers.get(fmt)
         try:
-            raw = reader(str(path)) if reader else mio.read(path, file_format=fmt)
+            # meshio's STL reader first reads any file as binary, where an ASCII file's
+            # header makes a triangle count that overflows: a spurious numpy warning
+            with np.errstate(all="ignore"), warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)
+                raw = reader(str(path)) if reader else mio.read(path, file_format=fmt)
         except (Exception, SystemExit) as exc:
             msg = f"{type(exc).__name__}: {str(exc) or 'not a valid file of this format'}"
             errors.append(f"as {fmt}: {msg[:200]}")

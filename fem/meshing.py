@@ -169,7 +169,9 @@ def _load_surface(surface: Any) -> tuple[NDArray, NDArray, str | None]:
         except Exception as exc:
             raise MeshError(f"cannot read {source}: {type(exc).__name__}: {exc}") from None
         if not isinstance(surface, pv.PolyData) and hasattr(surface, "extract_surface"):
-            surface = surface.extract_surface()
+            with warnings.catch_warnings():  # pyvista's notice of a future default
+                warnings.simplefilter("ignore")
+                surface = surface.extract_surface()
     if not isinstance(surface, pv.PolyData):
         raise MeshError(
             f"{source or 'surface'}: expected a path, a pyvista.PolyData or (points, "

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 from ..errors import SceneError
+from .bounds import BOUNDS, FRAME_TIME_TOL
 from .model import (
     CONTACT_KEYS,
     LINEAR_SOLVERS,
+    WINDOW_SIZE,
     AutoFlex,
     Follow,
     HandScene,
@@ -15,11 +17,15 @@ from .model import (
     SolverScene,
 )
 from .read import load_scene
+from .sizing import SceneSize
 from .spec import Scene
 
 __all__ = [
+    "BOUNDS",
     "CONTACT_KEYS",
+    "FRAME_TIME_TOL",
     "LINEAR_SOLVERS",
+    "WINDOW_SIZE",
     "AutoFlex",
     "Follow",
     "HandScene",
@@ -28,6 +34,7 @@ __all__ = [
     "PlaneScene",
     "Scene",
     "SceneError",
+    "SceneSize",
     "SolverScene",
     "load_scene",
 ]

@@ -3,7 +3,8 @@
 :class:`SceneReader` is the strict :class:`~contact._toml.TomlReader` with
 :class:`SceneError`; :meth:`SceneReader.build` constructs a scene dataclass and turns its
 failed check (``E = 0.0: must be positive``) into one line naming the file and the full
-key path (``grasp.toml: hand.flesh.E = 0.0: must be positive``).
+key path (``grasp.toml: hand.flesh.E = 0.0: must be positive``); :meth:`SceneReader.bounded`
+reads a number within the physical bounds of its kind (:mod:`contact.scene.bounds`).
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from typing import Any, TypeVar
 
 from .._toml import TomlReader, join
 from ..errors import SceneError
+from .bounds import out_of_bounds
 from .model import Material
 
 __all__ = ["SceneReader"]
@@ -53,10 +55,44 @@ class SceneReader(TomlReader):
         except SceneError as exc:
             raise SceneError(f"{self.source}: {join(path, str(exc))}") from None
 
+    def bounded(self, value: Any, path: str, kind: str, **kw: Any) -> float:
+        """A finite number (:meth:`number`, with its ``kw``) within the bounds of ``kind``.
+
+        Parameters
+        ----------
+        value : object
+            The parsed value.
+        path : str
+            Its key path.
+        kind : str
+            A key of :data:`contact.scene.bounds.BOUNDS` (``"length"``, ``"modulus"``...).
+        **kw
+            ``positive`` or ``nonnegative``.
+
+        Returns
+        -------
+        float
+        """
+        x = self.number(value, path, **kw)
+        why = out_of_bounds(kind, x)
+        if why:
+            raise self.fail(path, value, why)
+        return x
+
+    def bounded_vector(self, value: Any, path: str, kind: str, n: int = 3) -> tuple[float, ...]:
+        """A list of ``n`` numbers, each within the bounds of ``kind``."""
+        v = self.vector(value, path, n)
+        for i, x in enumerate(v):
+            why = out_of_bounds(kind, x)
+            if why:
+                raise self.fail(f"{path}[{i}]", value[i], why)
+        return v
+
     def material(self, value: Any, path: str, defaults: Material) -> Material:
         """A ``{E, nu, density}`` table; a missing key takes its value in ``defaults``."""
         self.table(value, path, optional=("E", "nu", "density"))
-        e = self.number(value.get("E", defaults.E), f"{path}.E")
+        e = self.bounded(value.get("E", defaults.E), f"{path}.E", "modulus", positive=True)
         nu = self.number(value.get("nu", defaults.nu), f"{path}.nu")
-        rho = self.number(value.get("density", defaults.density), f"{path}.density")
+        rho = value.get("density", defaults.density)
+        rho = self.bounded(rho, f"{path}.density", "density", nonnegative=True)
         return self.build(path, Material, e, nu, rho)

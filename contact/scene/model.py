@@ -33,6 +33,7 @@ __all__ = [
     "FLESH",
     "LINEAR_SOLVERS",
     "RESERVED",
+    "WINDOW_SIZE",
     "AutoFlex",
     "Follow",
     "HandScene",
@@ -49,6 +50,8 @@ LINEAR_SOLVERS = ("auto", *BACKENDS)
 CONTACT_KEYS = tuple(f.name for f in fields(ContactSettings) if f.name != "support_limits")
 #: Body names a plane may not take.
 RESERVED = ("ball", "hand")
+#: The least and largest picture side (px): a renderer may abort on a huge window.
+WINDOW_SIZE = (64, 4096)
 #: The largest force (N) a force-driven plane or finger, or the ball's load, may be given:
 #: far above any grip.
 MAX_FORCE = MAX_LOAD_FORCE
@@ -352,7 +355,7 @@ class OutputScene:
     gif : bool
         Write an animated GIF of the frames.
     window_size : (int, int)
-        Picture size in pixels, each at least 1.
+        Picture size in pixels, each side within :data:`WINDOW_SIZE`.
     """
 
     directory: Path = Path("results")
@@ -361,6 +364,7 @@ class OutputScene:
     window_size: tuple[int, int] = (1024, 768)
 
     def __post_init__(self) -> None:
+        lo, hi = WINDOW_SIZE
         for i, v in enumerate(self.window_size):
-            if v < 1:
-                raise invalid(f"window_size[{i}]", v, "must be at least 1")
+            if not lo <= v <= hi:
+                raise invalid(f"window_size[{i}]", v, f"must lie in [{lo}, {hi}] pixels")

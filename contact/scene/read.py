@@ -14,12 +14,15 @@ dataclasses' (:mod:`contact.scene.model`, :mod:`contact.scene.spec`,
 failures it re-raises with the file and key path. What needs several sections is checked
 here: the keyframes against the rig's skeleton (:mod:`contact.scene.read_hand`), frames
 within the keyframes' span, planes that pass through each other or leave the ball's
-centre behind them at a frame, and a writable output folder. What needs the meshes (the
+centre behind them at a frame, a writable output folder, and the scene's estimated size
+against the machine's memory (:mod:`contact.scene.sizing`), before anything is built.
+Magnitudes are held within physical bounds (:mod:`contact.scene.bounds`). What needs the meshes (the
 ball inside a bone, a ball held by nothing, an inverted element) is the CLI's to check.
 """
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import replace
 from pathlib import Path
@@ -32,7 +35,9 @@ from .._toml import MISSING, tomllib
 from ..ball import BallError, BallSpec
 from ..errors import ContactError, SceneError
 from ..solver import ContactSettings
+from . import sizing
 from ._reader import SceneReader
+from .bounds import out_of_bounds
 from .model import (
     CONTACT_KEYS,
     Follow,
@@ -60,7 +65,12 @@ def _read_scene(r: SceneReader, data: dict, path: Path) -> tuple[str, str, tuple
     desc = sc.get("description", Scene.description)
     if not isinstance(desc, str):
         raise r.fail("scene.description", desc, "must be a string")
-    gravity = r.vector(sc["gravity"], "scene.gravity") if "gravity" in sc else None
+    gravity = None
+    if "gravity" in sc:
+        gravity = r.bounded_vector(sc["gravity"], "scene.gravity", "acceleration")
+        why = out_of_bounds("acceleration", math.hypot(*gravity))
+        if why:
+            raise r.fail("scene.gravity", sc["gravity"], why)
     return name, desc, gravity
 
 
@@ -75,16 +85,18 @@ def _read_ball(
         raise r.fail("ball", MISSING, "missing: a scene needs a [ball] table")
     b = r.table(data["ball"], "ball", required=("radius",), optional=_BALL)
     kw: dict[str, Any] = {}
-    for key in ("radius", "thickness", "mesh_size"):
+    for key in ("radius", "thickness"):
         if key in b:
-            kw[key] = r.number(b[key], f"ball.{key}", positive=True)
+            kw[key] = r.bounded(b[key], f"ball.{key}", "length", positive=True)
+    if "mesh_size" in b:  # bounded by the scene's size (contact.scene.sizing)
+        kw["mesh_size"] = r.number(b["mesh_size"], "ball.mesh_size", positive=True)
     if "pressure" in b:
-        kw["pressure"] = r.number(b["pressure"], "ball.pressure")
+        kw["pressure"] = r.bounded(b["pressure"], "ball.pressure", "pressure")
     for key, choices in (("kind", ("solid", "hollow")), ("element", ("tet", "hex"))):
         if key in b:
             kw[key] = r.string(b[key], f"ball.{key}", choices)
     if "center" in b:
-        kw["center"] = r.vector(b["center"], "ball.center")
+        kw["center"] = r.bounded_vector(b["center"], "ball.center", "position")
     if "nodal_pressure" in b:
         kw["nodal_pressure"] = r.boolean(b["nodal_pressure"], "ball.nodal_pressure")
     if "load" in b:  # [[t, fx, fy, fz, mx, my, mz], ...]: BallSpec checks the keys
@@ -107,7 +119,40 @@ def _read_ball(
     return spec, b.get("follow"), friction
 
 
-def _read_frames(r: SceneReader, data: dict, hand: HandScene | None) -> tuple[float, ...]:
+def _check_size(
+    r: SceneReader,
+    ball: BallSpec,
+    hand: HandScene | None,
+    frames: int,
+    frames_key: str,
+    frames_value: Any,
+) -> None:
+    """Refuse a scene too big for the machine (:mod:`contact.scene.sizing`), warn of a big one."""
+    size = sizing.estimate(ball, hand.resolution if hand else None, frames)
+    avail = sizing.available_memory()
+    frames_bytes = sizing.BYTES_PER_FRAME * frames
+    too_many = frames > sizing.MAX_FRAMES
+    if too_many or (avail is not None and size.memory > avail):
+        has = "unknown" if avail is None else sizing.format_bytes(avail)
+        why = f"too big: {size.describe()}, and the machine has {has} available"
+        if too_many or frames_bytes > 0.5 * size.memory:
+            why += f" (at most {sizing.MAX_FRAMES} frames)"
+            raise r.fail(frames_key, frames_value, why)
+        if ball.mesh is not None:
+            raise r.fail("ball.mesh", str(ball.mesh), why)
+        raise r.fail("ball.mesh_size", ball.mesh_size, f"{why}: give a larger mesh_size")
+    if (
+        3 * size.ball_nodes > sizing.WARN_DOFS
+        or frames > sizing.WARN_FRAMES
+        or (avail is not None and size.memory > 0.5 * avail)
+    ):
+        sizing.log.warning("%s: a big scene: %s", r.source, size.describe())
+
+
+def _read_frames(
+    r: SceneReader, data: dict, hand: HandScene | None, ball: BallSpec
+) -> tuple[float, ...]:
+    """``[frames]``: the times, after the scene's size is checked against the machine."""
     if "frames" not in data:
         raise r.fail("frames", MISSING, "missing: give [frames] times = [...] or count = N")
     fr = r.table(data["frames"], "frames", optional=("times", "count"))
@@ -119,8 +164,19 @@ def _read_frames(r: SceneReader, data: dict, hand: HandScene | None) -> tuple[fl
         lo, hi = 0.0, 1.0
     if "count" in fr:
         n = r.integer(fr["count"], "frames.count", 1)
+        if n > 1 and not hi > lo:
+            raise r.fail(
+                "frames.count", n, f"the keyframes span no time (one keyframe at t = {lo:g}): "
+                "the frames would repeat; give count = 1 or frames.times",
+            )  # fmt: skip
+        _check_size(r, ball, hand, n, "frames.count", fr["count"])
         return (lo,) if n == 1 else tuple(float(f"{t:.12g}") for t in np.linspace(lo, hi, n))
     times = r.times(fr["times"], "frames.times")
+    for i, t in enumerate(times):
+        why = out_of_bounds("time", t)
+        if why:
+            raise r.fail(f"frames.times[{i}]", fr["times"][i], why)
+    _check_size(r, ball, hand, len(times), "frames.times", MISSING)
     if hand is not None:
         tol = 1e-9 * max(1.0, hi - lo)
         for i, t in enumerate(times):
@@ -146,22 +202,32 @@ def _read_planes(r: SceneReader, data: dict) -> tuple[PlaneScene, ...]:
         name = r.string(p["name"], f"{where}.name")
         if any(q.name == name for q in planes):
             raise r.fail(f"{where}.name", name, "another plane has this name")
-        point = r.vector(p["point"], f"{where}.point")
+        point = r.bounded_vector(p["point"], f"{where}.point", "position")
         n = np.array(r.vector(p["normal"], f"{where}.normal"))
-        norm = np.linalg.norm(n)
-        if not norm > 1e-12:
+        big = np.abs(n).max()
+        if not big > 0:
             raise r.fail(f"{where}.normal", p["normal"], "must be a non-zero vector")
+        n = n / big  # scaled first: the norm of [1e200, 0, 1e200] does not overflow
+        norm = np.linalg.norm(n)
         raw = p.get("offsets", [])
         if not isinstance(raw, list):
             raise r.fail(f"{where}.offsets", raw, "must be a list of [time, dx, dy, dz]")
         offsets = []
         for j, k in enumerate(raw):
             t, *d = r.vector(k, f"{where}.offsets[{j}]", 4)
+            for x, kind in zip((t, *d), ("time", "position", "position", "position")):
+                why = out_of_bounds(kind, x)
+                if why:
+                    raise r.fail(f"{where}.offsets[{j}]", k, why)
             offsets.append((t, tuple(d)))
         raw = p.get("force", [])
         if not isinstance(raw, list):
             raise r.fail(f"{where}.force", raw, "must be a list of [time, N]")
         force = [tuple(r.vector(k, f"{where}.force[{j}]", 2)) for j, k in enumerate(raw)]
+        for j, (t, _) in enumerate(force):
+            why = out_of_bounds("time", t)
+            if why:
+                raise r.fail(f"{where}.force[{j}]", raw[j], why)
         normal = tuple(float(x) for x in n / norm)
         mu = r.number(p["friction"], f"{where}.friction") if "friction" in p else None
         planes.append(
@@ -342,7 +408,7 @@ def load_scene(path: str | os.PathLike) -> Scene:
     read = read_hand(r, data, base)
     hand, skeleton = read if read is not None else (None, None)
     follow = read_follow(r, follow_data, skeleton)
-    frames = _read_frames(r, data, hand)
+    frames = _read_frames(r, data, hand, ball)
     if hand is not None and "auto_flexion" in data["hand"]:
         auto = read_auto_flexion(r, data["hand"]["auto_flexion"], skeleton, frames)
         hand = replace(hand, auto_flexion=auto)

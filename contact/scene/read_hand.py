@@ -7,7 +7,6 @@ read here; the hand meshes are not (the CLI reads them).
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Any
 
@@ -18,6 +17,7 @@ from ..hand.keyframes import Key, Keyframes
 from ..hand.shipped import RESOLUTIONS, hand_files
 from ..hand.skeleton import Skeleton, load_skeleton
 from ._reader import SceneReader
+from .bounds import FRAME_TIME_TOL, frame_time
 from .model import AutoFlex, Follow, HandScene
 
 __all__ = ["HAND_KEYS", "read_auto_flexion", "read_follow", "read_hand", "read_keyframes"]
@@ -131,7 +131,7 @@ def read_keyframes(r: SceneReader, value: Any, skeleton: Skeleton) -> tuple[dict
     for i, k in enumerate(value):
         where = f"hand.keyframe[{i}]"
         r.table(k, where, required=("time", "angles"), optional=("tension", "continuity", "bias"))
-        t = r.number(k["time"], f"{where}.time")
+        t = r.bounded(k["time"], f"{where}.time", "time")
         if keys and not t > keys[-1]["time"]:
             raise r.fail(
                 f"{where}.time",
@@ -201,15 +201,25 @@ def read_auto_flexion(
                 f"must be a fingertip ({', '.join(FINGERTIPS)}) or a node index",
             )
         kw: dict[str, Any] = {}
-        for key in ("epsilon", "press", "force", "force_tolerance"):
+        for key in ("epsilon", "press"):
+            if key in a:
+                kw[key] = r.bounded(a[key], f"{where}.{key}", "position")
+        for key in ("force", "force_tolerance"):
             if key in a:
                 kw[key] = r.number(a[key], f"{where}.{key}")
         times = None
         if "times" in a:
-            times = r.times(a["times"], f"{where}.times")
-            for j, t in enumerate(times):
-                if not any(math.isclose(t, f, rel_tol=1e-9, abs_tol=1e-12) for f in frames):
-                    raise r.fail(f"{where}.times[{j}]", a["times"][j], "not one of the frame times")
+            given = r.times(a["times"], f"{where}.times")
+            matched = []
+            for j, t in enumerate(given):
+                f = frame_time(t, frames)  # stored exactly: the run matches it exactly
+                if f is None:
+                    raise r.fail(
+                        f"{where}.times[{j}]", a["times"][j],
+                        f"not one of the frame times (within {FRAME_TIME_TOL:g} relative)",
+                    )  # fmt: skip
+                matched.append(f)
+            times = tuple(matched)
         for prev in out:
             if prev.joint == joint and (
                 prev.times is None or times is None or set(prev.times) & set(times)
@@ -236,6 +246,6 @@ def read_follow(r: SceneReader, value: Any, skeleton: Skeleton | None) -> Follow
     if joint not in skeleton.joint_names:
         close = hint(joint, skeleton.joint_names)
         raise r.fail("ball.follow.joint", joint, f"unknown joint{close}")
-    start = r.number(f["start"], "ball.follow.start")
-    stop = r.number(f["stop"], "ball.follow.stop")
+    start = r.bounded(f["start"], "ball.follow.start", "time")
+    stop = r.bounded(f["stop"], "ball.follow.stop", "time")
     return r.build("ball.follow", Follow, joint, start, stop)
