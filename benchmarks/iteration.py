@@ -406,7 +406,7 @@ def run(quick: bool = False, out: str | Path | None = None) -> list[dict]:
             if v.label == CONTACT_SPACE.label:
                 reference = row
             if reference is not None and reference["force_z"]:
-                if row["stop_reason"] != "diverged":
+                if not row["stop_reason"].startswith("diverged"):
                     # the resultant on the hand (block), not the sum of the rows' forces:
                     # where both meshes touch, rows both ways share one physical force
                     row["force_vs_cs_pct"] = 100 * (row["force_z"] / reference["force_z"] - 1.0)

@@ -8,7 +8,7 @@ that :func:`parse_line` (``shlex``) reads every line back. A frame's line::
     fingers_N=P:0,T:0,I:0.199,M:0,R:0,L:0 bone=index_distal bone_N=0.182 updates=3 s=0.74
 
 (on one line): ``status`` is ``converged`` or the stop reason's head (``iteration-limit``,
-``not-held``, ``bone-force-limit``, ...), ``held`` is ``yes``, ``no`` or ``-`` (no free
+``not-held``, ``penetration-left``, ...), ``held`` is ``yes``, ``no`` or ``-`` (no free
 body), ``verdict`` is ``realistic`` or ``unrealistic``, ``fingers_N`` the normal force of
 each hand part by its letter (``-`` without a hand), ``bone`` and ``bone_N`` the bone that
 carries the largest force and its magnitude (``-`` and 0 where no bone carries any), ``updates`` the

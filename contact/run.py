@@ -37,7 +37,8 @@ import fem
 from .ball import LOCKING_NOTE, LOCKING_NU, Ball, make_ball
 from .fingerforce import FIRST_PRESS, Target, drive, finger_forces, guess, remember
 from .geometry.plane import Plane
-from .hand.autoflex import auto_flex, sphere_distance
+from .geometry.surfacequery import TriangleSurface, surface_of_mesh
+from .hand.autoflex import auto_flex, mesh_distance
 from .hand.fingers import node_parts
 from .hand.keyframes import Keyframes
 from .hand.objects import ObjectAssociation
@@ -137,8 +138,10 @@ class GraspRun:
     def angles(self, t: float) -> dict[str, float]:
         """The hand's angles at time ``t``: keyframes, then automatic flexion.
 
-        Each automatic flexion's outcome is kept in :attr:`auto_flexed` (joint to angle,
-        the node that reached the ball, its distance, converged and why). A force-driven
+        Each measures against the ball's placed contact facets, as the contact search does
+        (:func:`contact.hand.autoflex.mesh_distance`): a press reaches a coarse ball's
+        facets. Each outcome is kept in :attr:`auto_flexed` (joint to angle, the node
+        that reached the ball, its distance, converged and why). A force-driven
         one stops at first contact; the angle it presses :data:`FIRST_PRESS` past that is
         kept for the force search (:meth:`_solve`).
         """
@@ -146,7 +149,7 @@ class GraspRun:
         angles = self.keyframes.pose(t)
         self.auto_flexed: dict[str, dict] = {}
         self._pressed: dict[str, float] = {}
-        ball = sphere_distance(self._ball_centre(t), self.ball.spec.radius)
+        ball = mesh_distance(self._ball_surface(t))
         for af in self._flexions(t):
             res = auto_flex(
                 self.hand,
@@ -197,9 +200,11 @@ class GraspRun:
         assoc = ObjectAssociation("ball", follow.joint, follow.start, follow.stop)
         return assoc.transform(self.hand.skeleton, self.keyframes.pose, t)  # type: ignore[union-attr]
 
-    def _ball_centre(self, t: float) -> NDArray[np.float64]:
+    def _ball_surface(self, t: float) -> TriangleSurface:
+        """The ball's contact surface placed for ``t``: the facets the contact search meets."""
         tf = self._roll @ self.ball_transform(t)
-        return tf[:3, :3] @ np.asarray(self.ball.spec.center, float) + tf[:3, 3]
+        x = self.ball.mesh.points @ tf[:3, :3].T + tf[:3, 3]
+        return TriangleSurface(x, surface_of_mesh(self.ball.mesh, self.ball.outer)[1], name="ball")
 
     def ball_body(self, t: float) -> ElasticBody:
         """The ball placed for ``t``; refactored only when its placement turns it.

@@ -92,9 +92,11 @@ def test_grip_force_and_the_hand_parts_in_the_summary(finger_press):
             keys = {"normal", "tangential", "contact_area", "peak_pressure", "max_cone_use"}
             assert set(rec) == keys
             assert all(v >= 0 for v in rec.values())
-        # only the index touches; the parts add up to the grip (the hand is the slave)
+        # only the index touches; the parts add up to the grip (to the few per cent that
+        # the skin's share of rows where ball nodes press into it, spread on a facet's
+        # nodes, loses in magnitude)
         total = sum(p["normal"] for p in parts.values())
-        assert total == pytest.approx(entry["grip_force"], rel=1e-6, abs=1e-12)
+        assert total == pytest.approx(entry["grip_force"], rel=2e-2, abs=1e-12)
         assert all(parts[n]["normal"] == 0 for n in PARTS if n != "index")
         index = parts["index"]
         if index["normal"] > 0:

@@ -6,8 +6,10 @@ with ``|DIST(alpha) - DIST| < epsilon`` by a dichotomous search instead of inver
 kinematics. Only the contact point is mapped at each step (the JLD mapping of its segment);
 with ``first_contact`` also the skin nodes the joint moves, and the first of them to reach
 the object stops the search. Here the object is any signed distance (negative inside);
-:func:`sphere_distance` and :func:`plane_distance` build the usual ones and
-:func:`surface_distance` wraps a closed surface.
+:func:`sphere_distance` and :func:`plane_distance` build the usual ones,
+:func:`mesh_distance` measures against a meshed surface as the contact search does (a coarse
+ball's facets lie inside its sphere between their nodes) and :func:`surface_distance` wraps
+a closed pyvista surface.
 
 A scene can ask for a further press: ``target = -press`` finds the angle at which the point
 lies ``press`` inside the undeformed object; the contact iteration then resolves that
@@ -25,6 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import RigError
+from ..geometry.surfacequery import TriangleSurface
 from .jld import JLDMap
 from .shipped import Hand
 
@@ -37,6 +40,7 @@ __all__ = [
     "auto_flex",
     "expected_halvings",
     "fingertip_node",
+    "mesh_distance",
     "plane_distance",
     "sphere_distance",
     "surface_distance",
@@ -75,6 +79,28 @@ def plane_distance(point: ArrayLike, normal: ArrayLike) -> Distance:
 
     def dist(p: NDArray[np.float64]) -> NDArray[np.float64]:
         return (np.atleast_2d(p) - q) @ n
+
+    return dist
+
+
+def mesh_distance(surface: TriangleSurface) -> Distance:
+    """Signed distance to a closed triangle surface (negative inside), as contact measures it.
+
+    The distance to the closest point of the facets, inside by the side of its
+    pseudo-normal (:meth:`~contact.geometry.surfacequery.TriangleSurface.signed_distance`;
+    exact on a closed surface that does not overlap itself). Between its nodes a coarse
+    ball's facets lie inside its sphere by up to the chord's sagitta: a press measured
+    against the sphere may not reach them.
+
+    Raises
+    ------
+    SurfaceError
+        If the surface is not closed and outward.
+    """
+    surface.check_closed()
+
+    def dist(p: NDArray[np.float64]) -> NDArray[np.float64]:
+        return surface.signed_distance(np.atleast_2d(p), sign="pseudonormal")
 
     return dist
 

@@ -33,9 +33,10 @@ from .pairs import ContactPair, Penetrations, Survey, measure
 from .results import FrameResult, IterationRecord
 from .rows import ContactRows, MortarCandidates, mortar_candidates
 from .settings import ContactSettings
+from .verdicts import over_limit
 from .zone import master_zone, slave_zone
 
-__all__ = ["FrameState", "limit_reason"]
+__all__ = ["FrameState"]
 
 log = logging.getLogger(__name__)
 
@@ -315,15 +316,8 @@ class FrameState:
     def over_limit(
         self, supports: Mapping[str, Mapping[str, NDArray]]
     ) -> dict[str, tuple[float, float]]:
-        """Support groups whose force magnitude passes its limit."""
-        out = {}
-        for forces in supports.values():
-            for name, f in forces.items():
-                limit = self.settings.support_limits.get(name)
-                mag = float(np.linalg.norm(f))
-                if limit is not None and mag > limit:
-                    out[name] = (mag, float(limit))
-        return out
+        """Support groups whose force magnitude passes its limit (:mod:`.verdicts`)."""
+        return over_limit(self.settings.support_limits, supports)
 
     def separation(
         self, rows: ContactRows, lam: NDArray[np.float64], pens: list[Penetrations]
@@ -389,11 +383,11 @@ class FrameState:
         """Assemble the frame's result from the last state.
 
         A frame converged only where no node-to-surface contact is left inside by more
-        than the tolerance and no support group passes its limit; otherwise
-        ``stop_reason`` says which. ``rows`` and ``lam`` are the closed contacts' normal
-        rows and forces; ``friction`` their tangential rows and forces, where any;
-        ``slip`` the record of a free body friction does not hold
-        (:meth:`contact.solver.coulomb.Slip.record`).
+        than the tolerance; otherwise ``stop_reason`` says which. A support group over its
+        limit leaves it converged: ``over_limit`` names it (:mod:`.verdicts`). ``rows``
+        and ``lam`` are the closed contacts' normal rows and forces; ``friction`` their
+        tangential rows and forces, where any; ``slip`` the record of a free body friction
+        does not hold (:meth:`contact.solver.coulomb.Slip.record`).
         """
         e = self.matrices(rows) if len(rows) else {}
         force_rows, force_lam = rows, lam
@@ -444,9 +438,6 @@ class FrameState:
         if spun and converged:
             converged, stop = False, spun
         over = self.over_limit(supports)
-        if over and converged:
-            converged = False
-            stop = limit_reason(over)
         self.timings["total"] = time.perf_counter() - self.t0
         names = np.array([p.name for p in self.pairs], dtype=object)
         contacts = {
@@ -481,12 +472,6 @@ class FrameState:
             plane_positions=self.driven.positions(),
             slip=slip,
         )
-
-
-def limit_reason(over: Mapping[str, tuple[float, float]]) -> str:
-    """The stop reason of support groups over their limits: the furthest over, by ratio."""
-    name, (force, limit) = max(over.items(), key=lambda kv: kv[1][0] / kv[1][1])
-    return f"bone force limit: {name} carries {force:.4g} N > {limit:.4g} N"
 
 
 def _body_force(

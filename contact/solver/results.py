@@ -136,17 +136,25 @@ class FrictionReport:
 class FrameResult:
     """The outcome of the contact solve of one frame, for every body.
 
+    A frame whose seed loop diverged (``stop_reason`` ``"diverged: ..."``) holds no
+    figure of its last iterate, which solves nothing: its bodies at rest (zero
+    displacements), no contacts, zero contact, plane and bone forces, ``over_limit``
+    empty; only ``history`` keeps each iterate's figures (how it grew). A bone over its
+    limit does not make a frame unconverged: it is solved as without the limit, and
+    ``over_limit`` names the bone (the verdict calls the frame unrealistic).
+
     Attributes
     ----------
     converged : bool
-        The contacts settled within the limits and no support force passed its limit.
+        The contacts settled within the limits (a support force over its limit says
+        nothing of this: see ``over_limit``).
     stop_reason : str
-        ``"converged"``, ``"iteration limit"``, ``"cycling"``, ``"bone force limit:
-        ..."`` (naming the bone, its force and its limit), ``"penetration left: ..."``
+        ``"converged"``, ``"iteration limit"``, ``"cycling"``, ``"penetration left: ..."``
         (naming the node and the pair), ``"not held: ..."`` (a free body slid off its
         contacts, touches nothing at the end, or its loads are out of balance where no
         contact holds it: how far or how hard and which way), or the seed loop's
-        ``"diverged"``.
+        ``"diverged: ..."`` (which node of which body moved how far) or ``"singular
+        contact rows ..."``.
     algorithm : str
         ``"contact-space"`` or ``"seed"``.
     iterations : int
@@ -163,7 +171,8 @@ class FrameResult:
         Body name -> support group (bone) -> force ``(3,)`` the support exerts on the body
         to hold it (N): what the musculature carries.
     over_limit : dict of str to tuple of float
-        Support groups whose force magnitude passed its limit: name -> (force, limit).
+        Support groups whose force magnitude passed its limit at the end: name ->
+        (force, limit) (N); empty where none did, or the frame diverged.
     contacts : dict of str to ndarray
         The active contacts: ``pair`` (name per row), ``node`` (slave node), ``force``
         (normal force, N, positive pushes apart), ``normal`` ``(m, 3)``.

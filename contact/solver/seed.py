@@ -16,7 +16,8 @@ loops (:class:`contact.solver.contactset.ContactSet`). The loop converges only w
 ball is the softer side (the others then act as a mould stiffer than it); the default
 algorithm is :mod:`contact.solver.contact_space`. A free ball that its rows do not hold
 against its loads, or that touches nothing at the end, stops the frame as not held
-(:mod:`contact.solver.held`).
+(:mod:`contact.solver.held`). A loop that diverges reports no force or displacement of its
+last iterate (:mod:`contact.solver.verdicts`); a bone over its limit does not stop it.
 """
 
 from __future__ import annotations
@@ -32,9 +33,10 @@ import fem
 from ..errors import ContactError
 from . import held
 from .delassus import BodyState, ContactSpace
-from .frame import FrameState, limit_reason
+from .frame import FrameState
 from .results import FrameResult, IterationRecord
 from .rows import ContactRows
+from .verdicts import divergence, rest_states
 
 __all__ = ["solve_seed"]
 
@@ -55,7 +57,9 @@ def solve_seed(frame: FrameState, dirichlet: str) -> FrameResult:
     -------
     FrameResult
         The last contact set and its forces; ``stop_reason`` ``"converged"``,
-        ``"diverged"``, ``"iteration limit"``, a support over its limit, or singular rows.
+        ``"iteration limit"``, not held, or singular rows. ``"diverged: ..."`` (what moved
+        how far) reports the bodies at rest, without contacts or forces: the diverged
+        iterate solves nothing (:mod:`contact.solver.verdicts`).
 
     Raises
     ------
@@ -75,10 +79,7 @@ def solve_seed(frame: FrameState, dirichlet: str) -> FrameResult:
                 "does not involve it (use the contact-space algorithm)"
             )
     space = ContactSpace(frame.bodies)
-    states = {
-        b.name: BodyState(np.zeros(b.mesh.n_dofs), np.zeros(b.mesh.n_dofs), np.zeros(0))
-        for b in frame.bodies
-    }
+    states = rest_states(frame.bodies)
     u = {b.name: np.zeros((b.mesh.n_points, 3)) for b in frame.bodies}
     # step 2 (first time): nodes penetrating or touching in the posed position
     rows, _, _ = frame.contacts.new_rows(ContactRows(), u, touching=True)
@@ -153,8 +154,9 @@ def solve_seed(frame: FrameState, dirichlet: str) -> FrameResult:
         solved = rows
         if not np.isfinite(size) or size > frame.extent:
             # a linear solution moving a node further than the scene is wide: the
-            # Dirichlet-Neumann iteration diverges (the ball is the stiffer side)
-            stop = "diverged"
+            # Dirichlet-Neumann iteration diverges (the ball is the stiffer side); its
+            # history keeps how it grew, the result none of its forces
+            stop = divergence(frame.bodies, states, frame.extent, it)
             frame.record(
                 history,
                 iteration=it,
@@ -167,6 +169,7 @@ def solve_seed(frame: FrameState, dirichlet: str) -> FrameResult:
                 lam=lam,
                 relaxation=omega,
             )
+            states, solved, lam = rest_states(frame.bodies), ContactRows(), np.zeros(0)
             break
         u = {name: s.u.reshape(-1, 3) for name, s in states.items()}
         scale = frame.force_scale(lam)
@@ -174,7 +177,6 @@ def solve_seed(frame: FrameState, dirichlet: str) -> FrameResult:
         # step 2: contacts that pull released, new penetrations taken
         grown, added, depth = frame.contacts.new_rows(rows, u, False, pulling)
         supports = frame.supports(states)
-        over = frame.over_limit(supports)
         frame.record(
             history,
             iteration=it,
@@ -189,9 +191,6 @@ def solve_seed(frame: FrameState, dirichlet: str) -> FrameResult:
             supports=supports,
         )
         log.debug("seed: iteration %d, %d contacts, change %.3g", it, len(rows), change)
-        if over:
-            stop = limit_reason(over)
-            break
         if it > 1 and change <= st.tolerance * size and not added and not pulling.any():
             converged, stop = True, "converged"
             if out := frame.untouched(rows, e, lam, states):

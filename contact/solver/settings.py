@@ -48,8 +48,8 @@ class ContactSettings:
         The fixed factor, and Aitken's first one, in (0, 1].
     support_limits : mapping of str to float, optional
         Largest force (N) each support group (bone) may carry; a frame whose force passes
-        it stops (seed) or is reported over the limit (contact space). Groups not named
-        have no limit.
+        it is reported over the limit (``FrameResult.over_limit``), its solve unchanged.
+        Groups not named have no limit.
 
     Raises
     ------

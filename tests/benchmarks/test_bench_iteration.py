@@ -93,5 +93,5 @@ def test_seed_loop_holds_a_soft_ball_and_not_a_stiff_one(quick):
     assert all(abs(r["force_vs_cs_pct"]) < 2.0 for r in held)
     stiff = frame("hand cup", 10.0, "seed, none")
     assert not stiff["converged"]
-    assert stiff["stop_reason"] in ("diverged", "iteration limit", "cycling")
+    assert stiff["stop_reason"].startswith(("diverged: ", "iteration limit", "cycling"))
     assert frame("hand cup", 10.0, "contact space")["converged"]

@@ -169,7 +169,7 @@ def test_seed_loop_reports_a_stiff_ball_as_not_converged():
     bodies, pairs, planes = scene(100.0)
     res = solve_frame(bodies, pairs, planes, ContactSettings(algorithm="seed", max_iterations=30))
     assert not res.converged
-    assert res.stop_reason in ("diverged", "iteration limit", "cycling")
+    assert res.stop_reason.startswith(("diverged: ", "iteration limit", "cycling"))
     assert len(res.history) == res.iterations >= 1
 
 
@@ -184,8 +184,9 @@ def test_support_force_limit_stops_the_frame(algorithm):
         planes,
         ContactSettings(algorithm=algorithm, support_limits={"base": 0.5 * force}),
     )
-    assert not limited.converged
-    assert limited.stop_reason.startswith("bone force limit: base carries")
+    # solved as without the limit, and reported over it (the verdict is unrealistic)
+    assert limited.converged
+    assert limited.stop_reason == "converged"
     assert set(limited.over_limit) == {"base"}
     assert limited.over_limit["base"][1] == 0.5 * force
     ok = solve_frame(

@@ -131,7 +131,7 @@ def test_seed_loop_holds_a_soft_ball_and_fails_a_stiff_one():
     assert f == pytest.approx(ref.total_contact_force("hand")[2], rel=0.03)
     _, stiff = solve(10.0, 0.005, algorithm="seed")
     assert not stiff.converged
-    assert stiff.stop_reason in ("diverged", "iteration limit", "cycling")
+    assert stiff.stop_reason.startswith(("diverged: ", "iteration limit", "cycling"))
 
 
 def test_a_deeper_press_passes_the_bone_limit_and_names_the_bone():
@@ -142,6 +142,5 @@ def test_a_deeper_press_passes_the_bone_limit_and_names_the_bone():
     _, ok = solve(0.1, 0.005, support_limits=limits)
     assert ok.converged and not ok.over_limit
     _, deep = solve(0.1, 0.008, support_limits=limits)
-    assert not deep.converged
-    assert deep.stop_reason.startswith(f"bone force limit: {top} carries")
+    assert deep.converged and deep.stop_reason == "converged"
     assert deep.over_limit[top][0] > deep.over_limit[top][1] == limits[top]
