@@ -11,6 +11,7 @@ __all__ = [
     "RigError",
     "SceneError",
     "SurfaceError",
+    "TargetError",
 ]
 
 
@@ -63,3 +64,10 @@ class SurfaceError(ContactError, ValueError):
 
 class OutputError(ContactError, OSError):
     """The results folder cannot be written (the message names the folder)."""
+
+
+class TargetError(OutputError):
+    """The results folder asked for may not be replaced (foreign files, not a folder).
+
+    Bad input (exit status 2), unlike the other :class:`OutputError` (an I/O failure).
+    """

@@ -4,10 +4,15 @@ It reads the scene, solves its frames (:class:`contact.run.GraspRun`: pose the h
 the ball, resolve the contact) and writes the results folder
 (:class:`contact.output.ResultsWriter`), with a progress bar on a terminal and warnings as
 one log line each. On stdout it reports one line a frame and a closing line
-(:mod:`contact.report`; ``--quiet`` silences them). Exit status: 0 when every frame
-converged with every bone under its limit, 1 when a frame did not converge or a bone
-passed its limit (everything is still written), 2 for bad input (one line on stderr naming
-the file, key or element; nothing written).
+(:mod:`contact.report`; ``--quiet`` silences them). Exit status (:data:`EXIT_STATUS`): 0
+when every frame converged with every bone under its limit, 1 when a frame did not
+converge, a bone passed its limit or a free body is not held (everything is still written;
+stderr names each such frame and why, unless ``--quiet``), 2 for bad input (one line on
+stderr naming the file, key or element; nothing written), 3 for an internal error (one
+line naming the exception and a log file holding its traceback), 4 for an I/O failure (a
+folder that cannot be written, a full disk, a race lost to another run), 130 and 143 when
+interrupted by SIGINT (Ctrl-C) and SIGTERM (one line; the staging folder removed, the
+previous results untouched).
 
 Each frame's record gets the grasp's figures (:mod:`contact.output.summary`): the grip
 force, the forces, contact area and peak pressure per hand part, and the largest strain
@@ -32,8 +37,12 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
+import signal
 import sys
+import tempfile
 import time
+import traceback
 import warnings
 from collections.abc import Sequence
 from pathlib import Path
@@ -41,7 +50,7 @@ from typing import TextIO
 
 import fem
 
-from .errors import ContactError, SceneError
+from .errors import ContactError, OutputError, SceneError, TargetError
 from .hand.fingers import node_parts
 from .leastgrip import Trial, judge, least_grip
 from .output import BodyFrame, ResultsWriter, summary, versions
@@ -52,9 +61,27 @@ from .scene.read import load_scene
 from .solver.body import ElasticBody
 from .solver.results import FrameResult, IterationRecord
 
-__all__ = ["GraspRun", "main", "run"]
+__all__ = ["EXIT_STATUS", "GraspRun", "main", "run"]
 
 log = logging.getLogger(__name__)
+
+#: The exit statuses of the command line, as ``--help`` and the README list them.
+EXIT_STATUS = (
+    "Exit status: 0 every frame converged with every bone under its limit; 1 a frame did "
+    "not converge, a bone passed its limit or a free body is not held (results are still "
+    "written; stderr names the frames and why, unless --quiet); 2 bad input (one line; "
+    "nothing written); "
+    "3 an internal error (one line and the path of a log file with its traceback); 4 an "
+    "I/O failure (a folder that cannot be written, a full disk, a race lost to another "
+    "run; the previous results untouched); 130 / 143 interrupted by SIGINT / SIGTERM "
+    "(the previous results untouched)."
+)
+#: Frames named one line each on stderr when a run exits 1; past these, one line counts.
+_FAILED_LINES = 5
+
+
+class _Terminated(BaseException):
+    """SIGTERM, raised where the run is, so that it unwinds as Ctrl-C does."""
 
 
 def _version() -> str:
@@ -96,7 +123,9 @@ def run(
     Returns
     -------
     int
-        The exit status: 0 every frame realistic, 1 not, 2 bad input (one line on stderr).
+        The exit status: 0 every frame realistic, 1 not (stderr names the frames unless
+        ``quiet``), 2 bad input, 4 an I/O failure (one line on stderr); see
+        :data:`EXIT_STATUS`.
     """
     try:
         scene = load_scene(scene_path)
@@ -120,6 +149,10 @@ def run(
             file=sys.stderr,
         )
         return 2
+    twice = sorted({i for i in chosen if chosen.count(i) > 1})
+    if twice:
+        print(f"error: --frames {twice[0]}: a frame is asked for twice", file=sys.stderr)
+        return 2
     directory = Path(out) if out is not None else scene.output.directory
     show = scene.output.pictures if pictures is None else pictures
     try:
@@ -129,9 +162,12 @@ def run(
             gif=scene.output.gif and show,
             window_size=scene.output.window_size,
         )
-    except (ContactError, OSError) as exc:
+    except (TargetError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 4
     solved = chosen
     if scene.frictional and frames is not None:
         # the history of stick anchors: solve from the first frame, in order
@@ -197,7 +233,12 @@ def run(
         writer.finish(scene.echo(), versions=versions())
         if found is not None:
             summary.add_least_grip(directory / "summary.json", found)
-    except (ContactError, ValueError, fem.FemError) as exc:
+    except OutputError as exc:
+        writer.abort()
+        bar.close()
+        print(f"error: {exc}", file=sys.stderr)
+        return 4
+    except (ContactError, fem.FemError) as exc:  # the scene's: a bare ValueError is a bug (3)
         writer.abort()
         bar.close()
         print(f"error: {scene.path}: {exc}", file=sys.stderr)
@@ -211,7 +252,20 @@ def run(
         print(summary_line(entries, directory), flush=True)
         if found is not None:
             print(least_grip_line(found), flush=True)
+    if status and not quiet:
+        _tell_failed(entries, directory)
     return status
+
+
+def _tell_failed(entries: Sequence[dict], directory: Path) -> None:
+    """On stderr: each frame not realistic and why (the first few), then the folder."""
+    failed = [e for e in entries if not e["verdict"]["realistic"]]
+    for e in failed[:_FAILED_LINES]:
+        print(f"frame {e['index']} (t = {e['time']:g}): {e['verdict']['reason']}", file=sys.stderr)
+    if len(failed) > _FAILED_LINES:
+        more = len(failed) - _FAILED_LINES
+        print(f"... and {more} more frames not realistic (summary.json)", file=sys.stderr)
+    print(f"results in {directory}", file=sys.stderr)
 
 
 def _least_grip(
@@ -280,9 +334,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         description="Pose a hand by keyframes and resolve its contact with a deformable "
         "ball, frame by frame; write the displacements, stresses, contact and bone forces, "
         "pictures and a summary with the verdict (is the grasp realistic?).",
-        epilog="Exit status: 0 every frame converged with every bone under its limit; 1 a "
-        "frame did not converge or a bone passed its limit (results are still written); 2 "
-        "bad input (nothing written). The scene keys are documented in docs/scene.md.",
+        epilog=EXIT_STATUS + " The scene keys are documented in docs/scene.md.",
     )
     ap.add_argument("scene", help="the scene file (TOML; see docs/scene.md)")
     ap.add_argument(
@@ -332,6 +384,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     # line on stderr like the log's, not a source line and a traceback-like location
     shown = warnings.showwarning
     warnings.showwarning = _warn_line
+    term = _catch_sigterm()
     try:
         if args.pose_only and args.least_grip:
             print("error: --least-grip solves the scene: it takes no --pose-only", file=sys.stderr)
@@ -346,8 +399,45 @@ def main(argv: Sequence[str] | None = None) -> int:
             quiet=args.quiet,
             least=args.least_grip,
         )
+    except (KeyboardInterrupt, _Terminated) as exc:
+        print("interrupted; the previous results are untouched", file=sys.stderr)
+        return 143 if isinstance(exc, _Terminated) else 130
+    except Exception as exc:
+        return _internal_error(exc)
     finally:
+        if term is not None:
+            signal.signal(signal.SIGTERM, term)  # type: ignore[arg-type]
         warnings.showwarning = shown
+
+
+def _catch_sigterm() -> object:
+    """Make SIGTERM raise :class:`_Terminated`; the handler before, or None (not main thread)."""
+
+    def handler(signum: int, frame: object) -> None:
+        raise _Terminated
+
+    try:
+        return signal.signal(signal.SIGTERM, handler)
+    except ValueError:  # not the main thread
+        return None
+
+
+def _internal_error(exc: Exception) -> int:
+    """Write the traceback to a log file; one line on stderr naming both; exit status 3."""
+    text = traceback.format_exc()
+    what = (str(exc).splitlines() or [""])[0][:300]
+    try:
+        fd, name = tempfile.mkstemp(prefix="grasp-contact-", suffix=".log")
+        with os.fdopen(fd, "w") as fh:
+            fh.write(text)
+        where = f"traceback in {name}"
+    except OSError:
+        where = "no log file could be written"
+    print(
+        f"error: internal error: {type(exc).__name__}: {what}; {where}; please report it",
+        file=sys.stderr,
+    )
+    return 3
 
 
 def _warn_line(

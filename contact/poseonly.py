@@ -15,8 +15,8 @@ Distances are signed, to the ball's meshed outer surface (m, negative inside the
 A fingertip is a skin node: the boundary node farthest along the finger's distal bone
 (:func:`contact.hand.fingers.fingertips`); since a finger meets a ball with its pad, a
 part's ``nearest`` node is what says whether it touches. The folder is written through a
-staging folder and replaces only an empty folder or an earlier pose folder (one holding a
-``pose.json``).
+staging folder (:mod:`contact.output.staging`) and replaces only an empty folder or an
+earlier pose folder whose marker lists every file in it.
 """
 
 from __future__ import annotations
@@ -24,7 +24,6 @@ from __future__ import annotations
 import json
 import logging
 import os
-import shutil
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -34,12 +33,12 @@ import numpy as np
 
 import fem
 
-from .errors import ContactError, InputError
+from .errors import ContactError, InputError, OutputError, TargetError
 from .geometry.surfacequery import TriangleSurface, surface_of_mesh
 from .hand.fingers import fingertips, node_parts
 from .hand.posing import Pose
 from .output.plainjson import jsonable
-from .output.staging import check_target, make_staging, swap_into_place, write_atomic
+from .output.staging import make_staging, write_atomic
 from .output.vtufields import write_pvd
 from .report import pose_line
 from .run import GraspRun
@@ -134,37 +133,49 @@ def pose_only(
     Returns
     -------
     int
-        0, or 2 on bad input (one line on stderr, nothing written).
+        0; 2 on bad input, 4 when the folder cannot be written (one line on stderr,
+        nothing written).
     """
     try:
         scene = load_scene(scene_path)
         if scene.hand is None:
             raise InputError("--pose-only needs a [hand]: the scene has none")
         times = list(scene.frames)
-        chosen = sorted(set(range(len(times)) if frames is None else frames))
-        bad = [i for i in chosen if not 0 <= i < len(times)]
+        asked = list(range(len(times)) if frames is None else frames)
+        bad = [i for i in asked if not 0 <= i < len(times)]
         if bad:
             raise InputError(f"--frames {bad[0]}: the scene has frames 0..{len(times) - 1}")
+        twice = sorted({i for i in asked if asked.count(i) > 1})
+        if twice:
+            raise InputError(f"--frames {twice[0]}: a frame is asked for twice")
+        chosen = sorted(asked)
         default = scene.output.directory
         directory = Path(os.path.abspath(out if out is not None else f"{default}_pose"))
-        check_target(directory, "pose.json", "pose")
-        staging = make_staging(directory)
+        stage = make_staging(directory, "pose")
+    except OutputError as exc:
+        print(f"error: {scene_path}: {exc}", file=sys.stderr)
+        return 2 if isinstance(exc, TargetError) else 4
     except (ContactError, ValueError, OSError) as exc:
         print(f"error: {scene_path}: {exc}", file=sys.stderr)
         return 2
+    staging = stage.path
     try:
         records = _write_frames(GraspRun(scene), times, chosen, staging, quiet)
         doc = {"scene": str(scene.path), "units": "m", "frames": records}
         write_atomic(staging / "pose.json", (json.dumps(doc, indent=2) + "\n").encode())
         for body in ("hand", "ball"):
             write_pvd(staging / f"{body}.pvd", [(r["time"], r["files"][body]) for r in records])
-        swap_into_place(staging, directory, "pose.json", "pose")
-    except (ContactError, ValueError, fem.FemError, OSError) as exc:
-        shutil.rmtree(staging, ignore_errors=True)
+        stage.swap()
+    except (OutputError, OSError) as exc:
+        stage.discard()
+        print(f"error: {scene.path}: {exc}", file=sys.stderr)
+        return 4
+    except (ContactError, ValueError, fem.FemError) as exc:
+        stage.discard()
         print(f"error: {scene.path}: {exc}", file=sys.stderr)
         return 2
     except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
+        stage.discard()
         raise
     if not quiet:
         print(f"frames={len(records)} results={directory}")

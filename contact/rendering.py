@@ -1,9 +1,10 @@
 """Off-screen rendering: can pyvista render here, PNG bytes of an image, a GIF of PNG files.
 
 A failing VTK can abort the process that renders, so :func:`rendering_available` asks a
-child process to render a small picture first, once per process. On Linux without a
-display it asks for an EGL window (``VTK_DEFAULT_OPENGL_WINDOW``) first and keeps it where
-it renders, so that VTK does not try X and log a warning on every run.
+child process to render a small picture first, once per process, and
+:func:`run_in_child` renders in a child process, whose death costs only its pictures.
+On Linux without a display it asks for an EGL window (``VTK_DEFAULT_OPENGL_WINDOW``)
+first and keeps it where it renders, so that VTK does not try X and log a warning on every run.
 
 This module imports nothing of :mod:`contact`: the results writer and the hand's pictures
 both use it.
@@ -13,16 +14,19 @@ from __future__ import annotations
 
 import functools
 import io
+import multiprocessing
 import os
+import signal
 import subprocess
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["png_bytes", "rendering_available", "write_gif"]
+__all__ = ["ChildDied", "png_bytes", "rendering_available", "run_in_child", "write_gif"]
 
 _PROBE = """
 import numpy as np, pyvista as pv
@@ -140,3 +144,70 @@ def write_gif(
         loop=0,
     )
     return path
+
+
+class ChildDied(RuntimeError):
+    """A child process ended without saying how it went (killed, aborted, timed out)."""
+
+
+def _child(conn: Any, func: Callable, args: tuple) -> None:
+    """Run ``func(*args)`` and send None, or ``(kind, message)`` on an error."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
+    try:
+        func(*args)
+        conn.send(None)
+    except OSError as exc:
+        conn.send(("os", str(exc)))
+    except Exception as exc:
+        conn.send(("other", f"{type(exc).__name__}: {exc}"))
+    finally:
+        conn.close()
+
+
+def run_in_child(func: Callable, args: tuple, timeout: float = 3600.0) -> None:
+    """Run ``func(*args)`` in a fresh (spawned) child process and wait for it.
+
+    Parameters
+    ----------
+    func : callable
+        A module-level function (it is pickled by name); its return value is dropped.
+    args : tuple
+        Its arguments (pickled).
+    timeout : float
+        Seconds after which the child is killed.
+
+    Raises
+    ------
+    OSError
+        When ``func`` raised one (a file that could not be written).
+    RuntimeError
+        When ``func`` raised anything else (the message names the exception).
+    ChildDied
+        When the child died (a signal, an abort) or took over ``timeout``.
+    """
+    ctx = multiprocessing.get_context("spawn")
+    receive, send = ctx.Pipe(duplex=False)
+    proc = ctx.Process(target=_child, args=(send, func, args), daemon=True)
+    proc.start()
+    send.close()
+    answer: object = "timeout"
+    try:
+        if receive.poll(timeout):
+            answer = receive.recv()
+    except EOFError:
+        answer = "died"
+    finally:
+        proc.join(5.0 if answer is None or isinstance(answer, tuple) else 1.0)
+        if proc.is_alive():
+            proc.kill()
+            proc.join()
+        receive.close()
+    if answer is None:
+        return
+    if isinstance(answer, tuple):
+        raise (OSError if answer[0] == "os" else RuntimeError)(answer[1])
+    if answer == "timeout":
+        raise ChildDied(f"the renderer took over {timeout:g} s and was stopped")
+    code = proc.exitcode
+    how = f"signal {signal.Signals(-code).name}" if code and code < 0 else f"exit status {code}"
+    raise ChildDied(f"the renderer's process died ({how})")

@@ -260,7 +260,7 @@ def test_pose_only_writes_the_posed_hand_the_ball_and_where_each_finger_is(tmp_p
     out = tmp_path / "pose"
     scene = ROOT / "examples" / "finger_press.toml"
     assert main([str(scene), "--pose-only", "--out", str(out)]) == 0
-    names = sorted(p.name for p in out.iterdir())
+    names = sorted(p.name for p in out.iterdir() if p.name != ".grasp-contact.json")
     assert names == [
         "ball.pvd", "ball_0000.vtu", "ball_0001.vtu", "ball_0002.vtu",
         "hand.pvd", "hand_0000.vtu", "hand_0001.vtu", "hand_0002.vtu", "pose.json",

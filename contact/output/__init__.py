@@ -16,7 +16,15 @@ from .pictures import (
 )
 from .plainjson import jsonable, versions
 from .plots import convergence_png, forces_png
-from .staging import check_target, make_staging, swap_into_place, write_atomic
+from .staging import (
+    MARKER,
+    Staging,
+    check_target,
+    clean_leftovers,
+    make_staging,
+    swap_into_place,
+    write_atomic,
+)
 from .status import CONTACT_FIELDS, StatusMarkers, contact_point_data, status_markers
 from .summary import frame_entry, friction_entry, summary_text, verdict
 from .vtufields import UNITS, add_field_data, units_name, write_body_vtu, write_pvd
@@ -24,6 +32,7 @@ from .writer import STRESS_COMPONENTS, BodyFrame, ResultsWriter
 
 __all__ = [
     "CONTACT_FIELDS",
+    "MARKER",
     "STRESS_COMPONENTS",
     "UNITS",
     "BodyFrame",
@@ -33,12 +42,14 @@ __all__ = [
     "Picture",
     "Push",
     "ResultsWriter",
+    "Staging",
     "StatusMarkers",
     "View",
     "add_field_data",
     "body_picture",
     "body_views",
     "check_target",
+    "clean_leftovers",
     "contact_point_data",
     "convergence_png",
     "deformed_surface",

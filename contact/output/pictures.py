@@ -27,6 +27,8 @@ A frame with friction also gets a picture of its stick and slip contacts
 (:mod:`contact.output.status`) in the main view. The pictures need off-screen OpenGL
 (:func:`contact.rendering.rendering_available`, read at use so that tests can replace it);
 without it, or when VTK fails, they are skipped with a warning rather than failing a run.
+They are rendered in a child process (:func:`contact.rendering.run_in_child`): VTK can
+abort the process that renders, which then costs the pictures, not the results.
 
 Every file is written atomically (:func:`contact.output.staging.write_atomic`).
 """
@@ -251,13 +253,15 @@ def render_pictures(
         log.warning("pictures skipped: %s", reason)
         return f"skipped: {reason}"
     try:
-        _render_all(pictures, folder, window_size, camera)
+        # VTK can abort the process that renders: in a child, that costs the pictures only
+        rendering.run_in_child(_render_all, (list(pictures), folder, window_size, camera))
     except OSError:
         raise  # a file that cannot be written: an error of the results folder
     except Exception as exc:  # pictures are not worth failing a run for
         shutil.rmtree(folder, ignore_errors=True)
-        log.warning("pictures skipped: rendering failed: %s", exc, exc_info=True)
-        return f"skipped: rendering failed: {type(exc).__name__}: {exc}"
+        why = str(exc) if isinstance(exc, rendering.ChildDied) else f"{type(exc).__name__}: {exc}"
+        log.warning("pictures not written: %s (the results are written)", why)
+        return f"skipped: rendering failed: {why}"
     return "written"
 
 

@@ -43,7 +43,6 @@ from __future__ import annotations
 import logging
 import os
 import re
-import shutil
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -67,7 +66,7 @@ from .pictures import (
 )
 from .plainjson import versions as _versions  # finish() has a parameter of this name
 from .plots import convergence_png, forces_png
-from .staging import check_target, make_staging, swap_into_place, write_atomic
+from .staging import make_staging, write_atomic
 from .status import contact_point_data, status_markers
 from .summary import frame_entry, summary_text
 from .vtufields import STRESS_COMPONENTS, write_body_vtu, write_pvd
@@ -139,9 +138,10 @@ class ResultsWriter:
     Parameters
     ----------
     directory : str or path-like
-        The results folder. Its parent is created if needed. An existing folder is
-        replaced by :meth:`finish` when it is empty or a results folder (holds a
-        ``summary.json``); any other existing folder or file is refused.
+        The results folder. Its parent is created if needed (and removed again by
+        :meth:`abort`). An existing folder is replaced by :meth:`finish` when it is empty
+        or its marker lists every file in it (:mod:`contact.output.staging`); any other
+        existing folder or file is refused. What dead runs left beside it is cleaned.
     pictures : bool
         Render ``frames/frame_NNNN.png`` (and ``frames/status_NNNN.png`` for a frame with
         friction).
@@ -162,9 +162,10 @@ class ResultsWriter:
 
     Raises
     ------
+    TargetError
+        When ``directory`` is an existing folder this program may not replace.
     OutputError
-        When the folder cannot be created or written, or is an existing folder that is
-        not a results folder.
+        When the folder cannot be created or written.
 
     Examples
     --------
@@ -196,8 +197,8 @@ class ResultsWriter:
         self.planes_extent = planes_extent
         self.camera = camera
         self.fps = float(fps)
-        check_target(self.directory)
-        self.staging = make_staging(self.directory)
+        self._stage = make_staging(self.directory)
+        self.staging = self._stage.path
         self._frames: list[_Frame] = []
         self._pictures: list[Picture] = []
         self._state = "open"
@@ -318,7 +319,7 @@ class ResultsWriter:
                     cell_bone=body.cell_bone,
                     bone_names=body.bone_names,
                 )
-            except fem.MeshError as exc:
+            except (fem.MeshError, OSError) as exc:
                 raise OutputError(
                     f"cannot write the results folder {self.directory}: {exc}"
                 ) from None
@@ -425,7 +426,7 @@ class ResultsWriter:
                 timings={"pictures": t_render, "finish": _clock() - t0},
             )
             write_atomic(self.staging / "summary.json", text.encode())
-            swap_into_place(self.staging, self.directory)
+            self._stage.swap()
         except OSError as exc:
             self.abort()
             if isinstance(exc, OutputError):
@@ -439,9 +440,9 @@ class ResultsWriter:
         return self.directory
 
     def abort(self) -> None:
-        """Remove the staging folder; the results folder stays as it was. Idempotent."""
+        """Remove the staging folder (and the parents it created); the results stay. Idempotent."""
         if self._state == "open":
-            shutil.rmtree(self.staging, ignore_errors=True)
+            self._stage.discard()
             self._state = "aborted"
             self._pictures.clear()
             log.debug("results for %s discarded", self.directory)

@@ -21,6 +21,7 @@ from contact.output import (
     verdict,
     versions,
 )
+from contact.output.staging import MARKER
 from contact.solver.body import ElasticBody
 from contact.solver.iteration import solve_frame
 from contact.solver.pairs import ContactPair
@@ -284,6 +285,7 @@ def old_results(path: Path) -> Path:
     path.mkdir()
     (path / "summary.json").write_text('{"old": true}')
     (path / "sentinel.txt").write_text("old run")
+    (path / MARKER).write_text('{"kind": "results", "files": ["summary.json", "sentinel.txt"]}')
     return path
 
 
@@ -298,7 +300,7 @@ def test_existing_results_replaced_completely(tmp_path):
     assert not (d / "sentinel.txt").exists()
     assert "old" not in json.loads((d / "summary.json").read_text())
     assert siblings(d) == ["res"]  # no staging or old folder left
-    assert not [p for p in d.rglob("*") if p.name.startswith(".")]  # no temporary file
+    assert not [p for p in d.rglob("*") if p.name.startswith(".") and p.name != MARKER]
 
 
 def test_abort_and_errors_leave_existing_results_untouched(tmp_path):
@@ -309,7 +311,7 @@ def test_abort_and_errors_leave_existing_results_untouched(tmp_path):
     # the CLI's way: abort() on an error
     w = ResultsWriter(d, pictures=False)
     w.add_frame(0, 0.0, res, bodies)
-    assert len(siblings(d)) == 2  # the staging folder, beside
+    assert len(siblings(d)) == 3  # the staging folder and its lock, beside
     w.abort()
     w.abort()  # idempotent
     with pytest.raises(RuntimeError, match="aborted"):
