@@ -20,7 +20,7 @@ the second of them Illinois-weighted), fall back to bisection (doubling or halvi
 outside a bracket), which bounds the number of trials however noisy ``h`` is.
 
 A verdict is a promise: a trial holds only when every frame is held and converged (a
-frame stopped at a bone's force limit counts as held: its contacts settled and hold the
+frame whose bone passes its limit is converged and counts as held: its contacts hold the
 ball; the frame's own verdict says the bone is overloaded). A frame that fails for any
 other reason (iteration limit, friction that did not settle, bad input) counts as not
 held, without a measure: the search then goes on by bisection, and the least grip
@@ -30,7 +30,6 @@ reported is always a scale that was run and held.
 from __future__ import annotations
 
 import math
-import re
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
@@ -57,9 +56,6 @@ BOUND = 64.0
 #: The most trials one search runs: bisection alone brackets 1 % of a 64x range in 13.
 MAX_TRIALS = 40
 
-_UNHELD = re.compile(r"(?P<f>[-+0-9.eE]+) N of its load is not carried.*?= (?P<c>[-+0-9.eE]+) N\)")
-
-
 @dataclass(frozen=True)
 class Trial:
     """One trial of the search: the scene's grip times ``scale``.
@@ -68,7 +64,7 @@ class Trial:
     ----------
     scale : float
     holds : bool
-        Every frame held and converged (or stopped only at a bone's force limit).
+        Every frame held and converged.
     h : float or None
         Friction available over friction needed at the hardest frame (:func:`measure`):
         > 1 holds with room, < 1 slips; None where no frame gave one.
@@ -159,18 +155,17 @@ def measure(result: FrameResult, scene: Scene, body: str = "ball") -> float | No
     """Friction available over friction needed by ``body`` in one frame, or None.
 
     Held: the sum of ``mu N`` over the body's contacts over the sum of the magnitudes of
-    the tangential forces of its pairs. Not held (``"not held: ..."``): ``C / (C + F)``,
-    ``C`` the friction available and ``F`` the load its contacts did not carry
-    (:func:`contact.solver.coulomb.unheld`). Both are 1 at the slip limit and grow about
+    the tangential forces of its pairs. Not held by friction (:attr:`FrameResult.slip`):
+    ``C / (C + F)``, ``C`` the friction available and ``F`` the load its contacts did not
+    carry (:func:`contact.solver.coulomb.unheld`). Both are 1 at the slip limit and grow about
     in proportion to the grip. None where the frame gives neither (no friction used, or
     a stop for another reason).
     """
-    stop = str(result.stop_reason)
-    if stop.startswith("not held"):
-        m = _UNHELD.search(stop)
-        if m is None:
-            return None
-        f, c = float(m["f"]), float(m["c"])
+    slip = result.slip
+    if slip is not None:  # not held: the friction its contacts had, the load they left
+        if slip.get("turns"):
+            return None  # a moment (N m) left: not a load to weigh against mu N
+        f, c = float(slip["not_carried"]), float(slip["available"])
         return c / (c + f) if c + f > 0 else None
     if result.held is not True or result.friction is None:
         return None
@@ -204,9 +199,8 @@ def _pair_mu(scene: Scene, pair: str, body: str) -> float:
 
 
 def _holds(result: FrameResult) -> bool:
-    """A frame holds: held and converged, or stopped only at a bone's force limit."""
-    ok = result.converged or str(result.stop_reason).startswith("bone force limit")
-    return result.held is True and ok
+    """A frame holds: held and converged (a bone over its limit does not stop a frame)."""
+    return result.held is True and bool(result.converged)
 
 
 def judge(

@@ -182,9 +182,10 @@ def test_first_trial_is_reused() -> None:
 # --- what a trial measures ------------------------------------------------------------
 
 
-def fake(stop="converged", held=True, converged=True, friction=None, contacts=None):
+def fake(stop="converged", held=True, converged=True, friction=None, contacts=None, slip=None):
     return SimpleNamespace(
-        stop_reason=stop, held=held, converged=converged, friction=friction, contacts=contacts
+        stop_reason=stop, held=held, converged=converged, friction=friction, contacts=contacts,
+        slip=slip,
     )
 
 
@@ -194,7 +195,11 @@ def test_measure_of_a_slip_and_a_hold(tmp_path: Path) -> None:
         "not held: ball slips along (0.000, 0.000, -1.000): 0.1 N of its load is not "
         "carried by its contacts (friction available sum mu N = 0.3 N)"
     )
-    assert measure(fake(stop, held=False, converged=False), scene) == pytest.approx(0.75)
+    slip = {"direction": [0.0, 0.0, -1.0], "not_carried": 0.1, "available": 0.3}
+    assert measure(fake(stop, False, False, slip=slip), scene) == pytest.approx(0.75)
+    # a moment left (it turns): no load to weigh against mu N
+    turns = {**slip, "turns": True}
+    assert measure(fake("not held: ball turns", False, False, slip=turns), scene) is None
     friction = SimpleNamespace(
         tangential_force={
             "ball/left_pad": np.array([0.0, 0.0, 0.2]),
@@ -210,7 +215,7 @@ def test_measure_of_a_slip_and_a_hold(tmp_path: Path) -> None:
 
 def test_judge_a_bone_limit_holds_other_stops_do_not(tmp_path: Path) -> None:
     scene = load_scene(pads(tmp_path))
-    bone = fake("bone force limit: index_distal", held=True, converged=False)
+    bone = fake("converged", held=True, converged=True)  # a bone over its limit: converged
     assert judge(1.0, [bone], [1.0], scene).holds
     stuck = fake("iteration limit", held=None, converged=False)
     tr = judge(2.0, [fake(), stuck], [0.5, 1.0], scene)

@@ -211,8 +211,8 @@ def test_frame_line_layout():
     rec = parse_line(frame_line(stopped, 0.5))
     assert rec["status"] == "not-held" and rec["held"] == "no"
     assert rec["verdict"] == "unrealistic" and rec["bone"] == "-"
-    limit = _entry(converged=False, stop_reason="bone force limit: index_distal carries 9 N > 5 N")
-    assert parse_line(frame_line(limit, 0.5))["status"] == "bone-force-limit"
+    left = _entry(converged=False, stop_reason="penetration left: node 3 of pair ball/hand")
+    assert parse_line(frame_line(left, 0.5))["status"] == "penetration-left"
 
 
 def test_summary_line_quotes_a_path_with_spaces():

@@ -117,13 +117,11 @@ def contact_fields(
 def held_verdict(bodies: Sequence[ElasticBody], converged: bool, stop: str) -> bool | None:
     """Whether every free body is held: None with no free body or where the frame says nothing.
 
-    False where the frame stopped as not held; True where it converged or stopped only
-    for a bone's force (the body is still held).
+    False where the frame stopped as not held; True where it converged (a bone over its
+    limit does not stop a frame).
     """
     if not any(b.solver.free_body for b in bodies):
         return None
     if stop.startswith("not held"):
         return False
-    if converged or stop.startswith("bone force limit"):
-        return True
-    return None
+    return True if converged else None
