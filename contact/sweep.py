@@ -1,0 +1,267 @@
+"""``python -m contact.sweep SWEEP.toml``: many scenes run on a Dask cluster.
+
+The sweep file (:mod:`contact.sweepspec`, ``docs/sweep.md``) names a base scene and the keys
+to vary; each combination is written as ``runs/NNNN/scene.toml`` in the sweep's folder and
+loaded before anything runs. Each run is one :func:`contact.grasp.run` into
+``runs/NNNN/results`` on a Dask worker: an embedded ``distributed.LocalCluster`` (processes,
+one thread each, one per core by default) or, with ``--scheduler``, an existing cluster
+(whose workers must see the sweep's folder). Each worker process runs with its share of
+the cores as its BLAS / OpenMP / numba thread count, so that the workers together do not
+oversubscribe them. A run that raises or exits 2 or more is a failed row and the sweep
+goes on; a run whose results folder is complete for the same scene text is not redone.
+The table is ``sweep.csv`` (:mod:`contact.sweeptable`) with a plot, ``sweep.png``.
+
+Exit status: 0 every run done, 1 a run failed, 2 a bad sweep file, a bad generated scene
+or a scheduler that does not answer (one line, nothing run).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import logging
+import os
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from .errors import ContactError
+from .grasp import run as grasp_run
+from .scene.read import load_scene
+from .sweepspec import Sweep, SweepError, SweepRun, expand, load_sweep
+from .sweeptable import columns, figures, plot, read_summary, write_table
+
+__all__ = ["SCHEDULER_TIMEOUT", "THREAD_VARIABLES", "main", "run_one", "sweep"]
+
+#: Seconds to wait for a ``--scheduler`` to answer before giving up (exit 2).
+SCHEDULER_TIMEOUT = 10.0
+#: The thread-count variables a worker process gets, read by the BLAS, PARDISO and numba.
+THREAD_VARIABLES = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS",
+                    "NUMBA_NUM_THREADS")  # fmt: skip
+
+
+def _limit_threads(threads: int) -> contextlib.AbstractContextManager:
+    """Hold this process's BLAS / OpenMP pools and numba to ``threads`` (a context)."""
+    from threadpoolctl import threadpool_limits
+
+    try:
+        import numba
+
+        numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
+    except (ImportError, ValueError):
+        pass
+    return threadpool_limits(limits=threads)
+
+
+def run_one(scene: str, results: str, pictures: bool, least: bool, threads: int) -> dict:
+    """One run, in a worker: :func:`contact.grasp.run`, its figures or its error's one line.
+
+    Parameters
+    ----------
+    scene, results : str
+        The generated scene file and its results folder.
+    pictures, least : bool
+        Render pictures; search the least grip.
+    threads : int
+        This run's share of threads (BLAS, OpenMP, numba).
+
+    Returns
+    -------
+    dict
+        ``status`` (``"done"`` or ``"failed: ..."``), ``exit_status``, ``seconds`` and, when
+        done, the figures of :func:`contact.sweeptable.figures`.
+    """
+    t0 = time.perf_counter()
+    err = io.StringIO()
+    try:
+        with _limit_threads(threads), contextlib.redirect_stderr(err), \
+                contextlib.redirect_stdout(io.StringIO()):  # fmt: skip
+            code = grasp_run(scene, out=results, pictures=pictures, quiet=True, least=least)
+    except Exception as exc:  # the sweep goes on: the row says what raised
+        line = (str(exc).splitlines() or [""])[0][:300]
+        return {"status": f"failed: {type(exc).__name__}: {line}", "exit_status": 3,
+                "seconds": time.perf_counter() - t0}  # fmt: skip
+    seconds = time.perf_counter() - t0
+    summary = read_summary(Path(results), least) if code < 2 else None
+    if summary is None:
+        lines = [x for x in err.getvalue().splitlines() if x.strip()]
+        why = lines[-1].removeprefix("error: ") if lines else "no complete summary.json"
+        return {"status": f"failed: {why[:300]}", "exit_status": code, "seconds": seconds}
+    return {**figures(summary), "status": "done", "exit_status": code, "seconds": seconds}
+
+
+def _prepare(sw: Sweep, out: Path) -> list[tuple[SweepRun, Path, dict | None]]:
+    """Write each run's scene and load it; ``(run, folder, resumed row or None)``.
+
+    A run whose folder holds the same scene text and a complete summary is resumed.
+
+    Raises
+    ------
+    SweepError
+        A generated scene that does not load: one line naming the run and the key.
+    """
+    prepared = []
+    for r in expand(sw, out / "runs"):
+        folder = out / "runs" / r.name
+        scene = folder / "scene.toml"
+        same = scene.is_file() and scene.read_text() == r.text
+        done = read_summary(folder / "results", sw.least_grip) if same else None
+        if not same:
+            folder.mkdir(parents=True, exist_ok=True)
+            scene.write_text(r.text)
+        try:
+            load_scene(scene)
+        except (ContactError, ValueError, OSError) as exc:
+            values = ", ".join(f"{k} = {v!r}" for k, v in r.values.items())
+            raise SweepError(f"run {r.name} ({values}): {exc}") from None
+        row = None if done is None else {**figures(done), "status": "done", "seconds": 0.0}
+        prepared.append((r, folder, row))
+    return prepared
+
+
+def _client(scheduler: str | None, workers: int | None, threads: int):
+    """A Dask client and the cluster it owns (None with ``--scheduler``)."""
+    from distributed import Client, LocalCluster
+
+    logging.getLogger("distributed").setLevel(logging.ERROR)
+    if scheduler:
+        return Client(scheduler, timeout=SCHEDULER_TIMEOUT), None
+    env = {v: str(threads) for v in THREAD_VARIABLES}
+    cluster = LocalCluster(
+        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+        silence_logs=logging.CRITICAL, env=env,
+    )  # fmt: skip
+    return Client(cluster), cluster
+
+
+def sweep(
+    path: str | Path,
+    *,
+    out: str | Path | None = None,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    quiet: bool = False,
+) -> int:
+    """Run a sweep file; write ``runs/``, ``sweep.csv`` and ``sweep.png`` into ``out``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The sweep file (``docs/sweep.md``).
+    out : str or Path, optional
+        The sweep's folder; default ``sweep.directory``, else ``results/<file stem>``.
+    scheduler : str, optional
+        A Dask scheduler's address; default an embedded local cluster.
+    workers : int, optional
+        Local worker processes; default one per core.
+    quiet : bool
+        No progress bar and no closing line.
+
+    Returns
+    -------
+    int
+        0 every run done, 1 a run failed, 2 bad input (one line on stderr, nothing run).
+    """
+    try:
+        sw = load_sweep(path)
+        folder = Path(out or sw.directory or Path("results") / Path(path).stem).resolve()
+        folder.mkdir(parents=True, exist_ok=True)
+        prepared = _prepare(sw, folder)
+    except (ContactError, OSError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    cores = os.cpu_count() or 1
+    n = workers or cores
+    threads = max(1, cores // n) if not scheduler else 1
+    rows: dict[int, dict[str, Any]] = {}
+    todo = []
+    for r, run_folder, row in prepared:
+        if row is not None:
+            rows[r.index] = {"run": r.name, **r.values, **row}
+        else:
+            todo.append((r, run_folder))
+    if todo:
+        try:
+            client, cluster = _client(scheduler, n, threads)
+        except (OSError, TimeoutError) as exc:
+            print(f"error: scheduler {scheduler}: does not answer ({exc})", file=sys.stderr)
+            return 2
+        try:
+            _submit(client, todo, sw, threads, rows, quiet)
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    ordered = [rows[i] for i in sorted(rows)]
+    write_table(ordered, columns(sw.keys, sw.least_grip), folder)
+    plot(ordered, sw.keys, sw.plot_y, folder / "sweep.png")
+    failed = sum(1 for r in ordered if r["status"] != "done")
+    if not quiet:
+        print(f"runs={len(ordered)} done={len(ordered) - failed} failed={failed} "
+              f"resumed={len(ordered) - len(todo)} table={folder / 'sweep.csv'}")  # fmt: skip
+    return 1 if failed else 0
+
+
+def _submit(client, todo, sw: Sweep, threads: int, rows: dict, quiet: bool) -> None:
+    """Submit the runs, gather them as they complete, one bar with done / failed counts."""
+    from distributed import as_completed
+    from tqdm import tqdm
+
+    futures = {}
+    for r, run_folder in todo:
+        fut = client.submit(
+            run_one, str(run_folder / "scene.toml"), str(run_folder / "results"),
+            sw.pictures, sw.least_grip, threads, key=f"grasp-run-{r.name}-{os.getpid()}",
+            retries=1, pure=False,
+        )  # fmt: skip
+        futures[fut] = r
+    done = failed = 0
+    with tqdm(total=len(todo), desc="runs", unit="run", disable=quiet) as bar:
+        for fut in as_completed(futures):
+            r = futures[fut]
+            try:
+                res = fut.result()
+            except Exception as exc:  # a worker that died past its retries
+                line = (str(exc).splitlines() or [""])[0][:300]
+                res = {"status": f"failed: {type(exc).__name__}: {line}", "exit_status": 3}
+            rows[r.index] = {"run": r.name, **r.values, **res}
+            if res["status"] == "done":
+                done += 1
+            else:
+                failed += 1
+            bar.set_postfix(done=done, failed=failed)
+            bar.update(1)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """The command line; returns the exit status."""
+    ap = argparse.ArgumentParser(
+        prog="python -m contact.sweep",
+        description="Run a sweep of grasp scenes (a base scene and the keys to vary) on a "
+        "Dask cluster; write each run's results, sweep.csv and sweep.png.",
+        epilog="Exit status: 0 every run done; 1 a run failed (its row says why); 2 bad "
+        "input (one line; nothing run). The sweep keys are documented in docs/sweep.md.",
+    )
+    ap.add_argument("sweep", help="the sweep file (TOML; see docs/sweep.md)")
+    ap.add_argument("--scheduler", metavar="ADDRESS",
+                    help="a Dask scheduler (tcp://host:8786); default an embedded local cluster")
+    ap.add_argument("--workers", metavar="N", type=int,
+                    help="local worker processes (default one per core)")
+    ap.add_argument("--out", metavar="DIR",
+                    help="the sweep's folder (default sweep.directory, else results/<stem>)")
+    ap.add_argument("--quiet", action="store_true", help="no progress bar, no closing line")
+    args = ap.parse_args(argv)
+    if args.workers is not None and args.workers < 1:
+        print("error: --workers must be at least 1", file=sys.stderr)
+        return 2
+    logging.basicConfig(level=logging.ERROR if args.quiet else logging.WARNING,
+                        format="%(levelname)s: %(message)s")  # fmt: skip
+    return sweep(args.sweep, out=args.out, scheduler=args.scheduler, workers=args.workers,
+                 quiet=args.quiet)  # fmt: skip
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,164 @@
+"""A sweep's table and plot: one row per run from its ``summary.json``; ``sweep.csv``, a PNG.
+
+:func:`figures` turns one results folder's summary into the row's figures (it runs in the
+worker that ran the scene, or in the sweep's process for a run resumed from its folder);
+:func:`write_table` writes ``sweep.csv`` (and ``sweep.parquet`` where pyarrow imports);
+:func:`plot` draws a chosen figure against the first varied key, one line per value of the
+second.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+__all__ = ["COLUMNS", "columns", "figures", "plot", "read_summary", "write_table"]
+
+#: The table's columns after the run id and the varied keys.
+COLUMNS = (
+    "status", "exit_status", "converged", "realistic", "held", "least_grip_scale",
+    "max_bone_force", "max_bone", "grip_force", "iterations", "seconds",
+)  # fmt: skip
+
+
+def read_summary(results: Path, least: bool) -> dict | None:
+    """A results folder's complete ``summary.json`` (with ``least_grip`` when asked), or None."""
+    try:
+        summary = json.loads((Path(results) / "summary.json").read_text())
+    except (OSError, ValueError):
+        return None
+    if not isinstance(summary, dict) or "frames" not in summary:
+        return None
+    if least and "least_grip" not in summary:
+        return None
+    return summary
+
+
+def _magnitude(v: Any) -> float:
+    if isinstance(v, Mapping):
+        v = v.get("magnitude", 0.0)
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        return 0.0
+
+
+def figures(summary: Mapping[str, Any]) -> dict[str, Any]:
+    """One run's figures from its summary (see docs/sweep.md for each).
+
+    Returns
+    -------
+    dict
+        ``exit_status`` (0 every frame realistic, else 1, as ``contact.grasp``),
+        ``converged``, ``realistic``, ``held`` (over all frames), ``least_grip_scale``
+        (None unless searched), ``max_bone_force`` (N) and ``max_bone`` over all frames,
+        ``grip_force`` at the last frame (N), ``iterations`` (summed over the frames).
+    """
+    frames = summary.get("frames", [])
+    best, bone = 0.0, ""
+    for f in frames:
+        for name, v in (f.get("bone_forces") or {}).items():
+            m = _magnitude(v)
+            if m > best:
+                best, bone = m, name
+    least = summary.get("least_grip")
+    realistic = bool(summary.get("all_realistic"))
+    return {
+        "exit_status": 0 if realistic else 1,
+        "converged": bool(summary.get("all_converged")),
+        "realistic": realistic,
+        "held": all(f.get("held") is not False for f in frames),
+        "least_grip_scale": least.get("scale") if isinstance(least, Mapping) else None,
+        "max_bone_force": best,
+        "max_bone": bone,
+        "grip_force": float(frames[-1].get("grip_force", 0.0)) if frames else 0.0,
+        "iterations": int(sum(f.get("iterations", 0) for f in frames)),
+    }
+
+
+def columns(keys: Sequence[str], least: bool) -> list[str]:
+    """The table's header: ``run``, the varied keys, then :data:`COLUMNS`."""
+    return ["run", *keys, *(c for c in COLUMNS if least or c != "least_grip_scale")]
+
+
+def _cell(v: Any) -> Any:
+    if isinstance(v, (list, tuple, dict)):
+        return json.dumps(v)
+    return "" if v is None else v
+
+
+def write_table(rows: Sequence[Mapping[str, Any]], header: Sequence[str], out: Path) -> list[Path]:
+    """Write ``sweep.csv`` (and ``sweep.parquet`` where pyarrow imports); the files written."""
+    out = Path(out)
+    path = out / "sweep.csv"
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(header)
+        for row in rows:
+            w.writerow([_cell(row.get(c)) for c in header])
+    written = [path]
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError:
+        return written
+    table = pa.table({c: [_cell(r.get(c)) for r in rows] for c in header})
+    pq.write_table(table, out / "sweep.parquet")
+    return [*written, out / "sweep.parquet"]
+
+
+def _number(v: Any) -> float | None:
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        return None
+    return x if math.isfinite(x) else None
+
+
+def plot(rows: Sequence[Mapping[str, Any]], keys: Sequence[str], y: str, path: Path) -> Path:
+    """``y`` against the first varied key (its values, or their order where not numbers).
+
+    Keys given one value are passed over; a second varied key gives one line per value;
+    failed runs are left out.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    keys = [k for k in keys if len({json.dumps(r[k]) for r in rows}) > 1] or list(keys[:1])
+    x_key = keys[0]
+    xs = [r[x_key] for r in rows]
+    numeric = all(_number(v) is not None for v in xs)
+    ticks = list(dict.fromkeys(json.dumps(v) for v in xs))
+    groups: dict[str, list[Mapping[str, Any]]] = {}
+    for r in rows:
+        label = f"{keys[1]} = {json.dumps(r[keys[1]])}" if len(keys) > 1 else ""
+        groups.setdefault(label, []).append(r)
+    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    for label, members in groups.items():
+        pts = []
+        for r in members:
+            yv = _number(r.get(y)) if r.get("status") == "done" else None
+            if yv is None:
+                continue
+            xv = _number(r[x_key]) if numeric else ticks.index(json.dumps(r[x_key]))
+            pts.append((xv, yv))
+        pts.sort()
+        ax.plot([p[0] for p in pts], [p[1] for p in pts], "o-", label=label or None)
+    if not numeric:
+        ax.set_xticks(range(len(ticks)), ticks, rotation=30, ha="right")
+    ax.set_xlabel(x_key)
+    ax.set_ylabel(y)
+    ax.set_title(f"{y} against {x_key}")
+    if len(keys) > 1:
+        ax.legend(fontsize="small")
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return Path(path)
