@@ -24,6 +24,7 @@ BENCHMARKS = (
     "frame",
     "friction",
     "holding",
+    "sweep",
     "posing",
     "sfepy_hertz",
 )

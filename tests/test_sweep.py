@@ -11,7 +11,7 @@ import pytest
 pytest.importorskip("distributed")
 
 from contact.grasp import run as grasp_run
-from contact.sweep import sweep
+from contact.sweep import _limit_threads, sweep
 from contact.sweepspec import dump_toml, load_sweep, tomllib
 
 PADS = Path(__file__).resolve().parents[1] / "examples" / "pads.toml"
@@ -67,8 +67,8 @@ def test_dump_toml_reads_back():
 
 def test_four_runs_equal_single_runs_then_resume(tmp_path, capsys):
     _scene(tmp_path)
-    sw = _sweep(tmp_path, '"plane[0].friction" = [0.5, 0.6]\n"plane[1].force" = '
-                '[[[0.0, 0.0], [1.0, 2.0]], [[0.0, 0.0], [1.0, 3.0]]]')  # fmt: skip
+    # both pads' friction: every run a ball held by force-driven pads (a well-posed frame)
+    sw = _sweep(tmp_path, '"plane[0].friction" = [0.5, 0.6]\n"plane[1].friction" = [0.5, 0.7]')
     out = tmp_path / "out"
     assert sweep(sw, out=out, workers=2, quiet=True) == 0
     rows = _rows(out)
@@ -79,11 +79,13 @@ def test_four_runs_equal_single_runs_then_resume(tmp_path, capsys):
         folder = out / "runs" / r["run"]
         scene = tomllib.loads((folder / "scene.toml").read_text())
         assert scene["plane"][0]["friction"] == float(r["plane[0].friction"])
-        assert grasp_run(folder / "scene.toml", out=tmp_path / "single", pictures=False,
-                         quiet=True) == int(r["exit_status"])  # fmt: skip
+        with _limit_threads(1):  # the worker's share of threads: the same sums
+            status = grasp_run(folder / "scene.toml", out=tmp_path / "single", pictures=False,
+                               quiet=True)  # fmt: skip
+        assert status == int(r["exit_status"]) == 0
         mine = json.loads((folder / "results" / "summary.json").read_text())
         single = json.loads((tmp_path / "single" / "summary.json").read_text())
-        _same(_strip(mine), _strip(single))  # to roundoff: the worker runs on 1 thread
+        _same(_strip(mine), _strip(single))  # to roundoff
         assert float(r["grip_force"]) == pytest.approx(single["frames"][-1]["grip_force"])
     stamps = {p: p.stat().st_mtime_ns for p in out.glob("runs/*/results/summary.json")}
     assert len(stamps) == 4
@@ -200,3 +202,12 @@ def test_a_worker_killed_during_a_run_is_resubmitted(tmp_path):
     assert killed
     rows = _rows(out)
     assert len(rows) == 4 and all(r["status"] == "done" for r in rows)
+
+
+def test_a_base_scene_that_does_not_exist_exits_2(tmp_path, capsys):
+    sw = _sweep(tmp_path, '"ball.radius" = [0.02]')  # names pads.toml, never written
+    out = tmp_path / "out"
+    assert sweep(sw, out=out, quiet=True) == 2
+    err = capsys.readouterr().err.strip()
+    assert "pads.toml" in err and "\n" not in err and "Traceback" not in err
+    assert not (out / "sweep.csv").exists()

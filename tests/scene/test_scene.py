@@ -26,7 +26,8 @@ from contact.scene import (
 from contact.solver import ContactSettings
 
 ROOT = Path(__file__).resolve().parents[2]
-EXAMPLES = sorted((ROOT / "examples").glob("*.toml"))
+#: The example scenes (a sweep file names a scene, it is not one: docs/sweep.md).
+EXAMPLES = sorted(p for p in (ROOT / "examples").glob("*.toml") if not p.stem.startswith("sweep"))
 
 BASE = """\
 [scene]
