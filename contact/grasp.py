@@ -36,6 +36,7 @@ frames' own.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import logging
 import os
 import signal
@@ -272,8 +273,7 @@ def _least_grip(
     run: GraspRun, times: list[float], results: list[FrameResult], bar, quiet: bool
 ) -> dict:
     """The least-grip search from the normal run (its first trial); its summary item."""
-    first = judge(1.0, results, times, run.scene)
-    first = Trial(first.scale, first.holds, first.h, 0, first.time, first.reason)
+    first = dataclasses.replace(judge(1.0, results, times, run.scene), solves=0)  # reused
 
     def tell(n: int, tr: Trial) -> None:
         log.info("least grip: trial %d at %.4gx: %s", n, tr.scale, tr.reason)

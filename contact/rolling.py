@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["MAX_ROLLS", "ROLL", "rigid_part", "turned_placement"]
+__all__ = ["MAX_ROLLS", "ROLL", "turned_placement"]
 
 #: A free ball's rigid turn (rad) in a frame past which it is placed anew and the frame
 #: solved again: half the largest turn the linear model is trusted with
@@ -24,30 +24,6 @@ __all__ = ["MAX_ROLLS", "ROLL", "rigid_part", "turned_placement"]
 ROLL = 0.05
 #: Solves of a frame again after a placement anew.
 MAX_ROLLS = 3
-
-
-def rigid_part(
-    points: NDArray[np.float64], u: NDArray[np.float64]
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The rigid part ``t + omega x (x - c)`` of displacements ``u`` of ``points``.
-
-    A least-squares fit about the centroid ``c``.
-
-    Returns
-    -------
-    t : ndarray, shape (3,)
-        The centroid's translation (m).
-    omega : ndarray, shape (3,)
-        The rotation vector (rad).
-    """
-    x = np.asarray(points, dtype=np.float64)
-    d = np.asarray(u, dtype=np.float64).reshape(-1, 3)
-    c = x.mean(axis=0)
-    r = x - c
-    t = d.mean(axis=0)
-    j = (r * r).sum() * np.eye(3) - r.T @ r
-    omega = np.linalg.solve(j, np.cross(r, d - t).sum(axis=0))
-    return t, omega
 
 
 def turned_placement(

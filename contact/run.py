@@ -44,7 +44,7 @@ from .hand.keyframes import Keyframes
 from .hand.objects import ObjectAssociation
 from .hand.posing import HandPoser, Pose
 from .hand.shipped import load_hand
-from .rolling import MAX_ROLLS, ROLL, rigid_part, turned_placement
+from .rolling import MAX_ROLLS, ROLL, turned_placement
 from .scene.model import PlaneScene
 from .scene.spec import Scene
 from .solver.anchors import Anchors
@@ -407,7 +407,7 @@ class GraspRun:
         for _ in range(MAX_ROLLS if self.scene.follow is None else 0):
             result, ball = out[0], out[3][0]
             settled = result.converged or result.stop_reason.startswith("ball turned")
-            move, omega = rigid_part(ball.mesh.points, result.displacement["ball"])
+            move, omega = fem.rigid_part(ball.mesh.points, result.displacement["ball"])
             turn = float(np.linalg.norm(omega))
             if not settled:
                 break  # a ball not held is where a soft spring left it: no placement

@@ -35,6 +35,7 @@ from .mesh import BoundaryFaces, Mesh, bounding_box
 from .meshing import check_surface, sphere_surface, tetrahedralize
 from .nodalpressure import nodal_dilatation, nodal_pressure_correction
 from .pvmesh import from_pyvista, to_pyvista
+from .saddle import rigid_part
 from .statics import StaticSolution, StaticSolver, check_balance, rigid_body_modes
 from .stress import cell_stress, gauss_strain, nodal_average, von_mises
 from .threads import dense_threads, sparse_threads
@@ -90,6 +91,7 @@ __all__ = [
     "read_mesh",
     "read_mesh_data",
     "rigid_body_modes",
+    "rigid_part",
     "rotation_svd3",
     "shell_mesh",
     "sparse_threads",

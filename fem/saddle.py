@@ -39,6 +39,7 @@ __all__ = [
     "free_columns",
     "held_modes",
     "rigid_body_modes",
+    "rigid_part",
     "solve_saddle",
     "solve_saddle_with",
     "spd_solve",
@@ -78,6 +79,30 @@ def rigid_body_modes(points: ArrayLike) -> NDArray[np.float64]:
     phi[:, 0, 5], phi[:, 1, 5] = -r[:, 1], r[:, 0]
     q, _ = np.linalg.qr(phi.reshape(3 * n, 6))
     return q
+
+
+def rigid_part(
+    points: NDArray[np.float64], u: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The rigid part ``t + omega x (x - c)`` of displacements ``u`` of ``points``.
+
+    A least-squares fit about the centroid ``c``.
+
+    Returns
+    -------
+    t : ndarray, shape (3,)
+        The centroid's translation (m).
+    omega : ndarray, shape (3,)
+        The rotation vector (rad).
+    """
+    x = np.asarray(points, dtype=np.float64)
+    d = np.asarray(u, dtype=np.float64).reshape(-1, 3)
+    c = x.mean(axis=0)
+    r = x - c
+    t = d.mean(axis=0)
+    j = (r * r).sum() * np.eye(3) - r.T @ r
+    omega = np.linalg.solve(j, np.cross(r, d - t).sum(axis=0))
+    return t, omega
 
 
 def check_balance(f: NDArray[np.float64], points: ArrayLike, rtol: float = 1e-8) -> None:

@@ -1,6 +1,8 @@
-"""Helpers shared by the tests: randomly distorted meshes and a mixed wedge-brick box."""
+"""Helpers shared by the tests: distorted meshes, a mixed wedge-brick box, a plates scene."""
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 
@@ -32,3 +34,59 @@ def mixed_mesh() -> fem.Mesh:
         {"hexahedron": hexes[~left], "wedge": wedges},
         {"hexahedron": np.zeros((~left).sum(), int), "wedge": np.ones(len(wedges), int)},
     )
+
+
+#: A solid ball between a table and a plate that presses 2 mm by t = 1 (no hand): a scene
+#: that runs in about a second.
+PLATES = """\
+[scene]
+name = "plates"
+
+[ball]
+radius = 0.02
+kind = "solid"
+element = "hex"
+mesh_size = {mesh_size}
+center = [0.0, 0.0, 0.02]
+material = {{ E = 1.0e6, nu = 0.3 }}
+
+[[plane]]
+name = "table"
+point = [0.0, 0.0, 0.0]
+normal = [0.0, 0.0, 1.0]
+
+[[plane]]
+name = "plate"
+point = [0.0, 0.0, 0.04]
+normal = [0.0, 0.0, -1.0]
+offsets = [[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, -0.002]]
+
+[frames]
+times = {times}
+
+[solver]
+max_iterations = {iterations}
+
+[output]
+directory = "{out}"
+pictures = {pictures}
+gif = {pictures}
+"""
+
+
+def plates_scene(
+    path: Path,
+    out: Path,
+    *,
+    mesh_size: float = 0.006,
+    times: tuple[float, ...] = (0.5, 1.0),
+    iterations: int = 30,
+    pictures: bool = False,
+) -> Path:
+    """Write :data:`PLATES` to ``path``, its results folder ``out``; return ``path``."""
+    text = PLATES.format(
+        out=out.as_posix(), mesh_size=mesh_size, times=list(times), iterations=iterations,
+        pictures=str(pictures).lower(),
+    )  # fmt: skip
+    path.write_text(text)
+    return path

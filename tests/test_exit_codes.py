@@ -13,47 +13,15 @@ import pytest
 import contact.grasp
 from contact.errors import OutputError
 from contact.grasp import main
+from tests.helpers import plates_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 
-SCENE = """
-[ball]
-radius = 0.02
-kind = "solid"
-element = "hex"
-mesh_size = 0.006
-center = [0.0, 0.0, 0.02]
-material = {{ E = 1.0e6, nu = 0.3 }}
-
-[[plane]]
-name = "table"
-point = [0.0, 0.0, 0.0]
-normal = [0.0, 0.0, 1.0]
-
-[[plane]]
-name = "plate"
-point = [0.0, 0.0, 0.04]
-normal = [0.0, 0.0, -1.0]
-offsets = [[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, -0.002]]
-
-[frames]
-times = {times}
-
-[solver]
-max_iterations = {iterations}
-
-[output]
-directory = "{out}"
-pictures = false
-"""
 
 
 def scene(tmp_path, iterations=30, times=(0.5, 1.0), out=None):
     out = out or tmp_path / "results"
-    path = tmp_path / "scene.toml"
-    text = SCENE.format(out=out.as_posix(), iterations=iterations, times=list(times))
-    path.write_text(text)
-    return path, out
+    return plates_scene(tmp_path / "scene.toml", out, times=times, iterations=iterations), out
 
 
 def one_line(err: str) -> str:

@@ -8,49 +8,16 @@ from pathlib import Path
 import pytest
 
 from contact.grasp import main
+from tests.helpers import plates_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 
-PLATES = """
-[scene]
-name = "plates"
-
-[ball]
-radius = 0.02
-kind = "solid"
-element = "hex"
-mesh_size = 0.003
-center = [0.0, 0.0, 0.02]
-material = {{ E = 1.0e6, nu = 0.3 }}
-
-[[plane]]
-name = "table"
-point = [0.0, 0.0, 0.0]
-normal = [0.0, 0.0, 1.0]
-
-[[plane]]
-name = "plate"
-point = [0.0, 0.0, 0.04]
-normal = [0.0, 0.0, -1.0]
-offsets = [[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, -0.002]]
-
-[frames]
-times = [0.5, 1.0]
-
-[solver]
-max_iterations = {iterations}
-
-[output]
-directory = "{out}"
-pictures = false
-"""
 
 
 def write(tmp_path, iterations=30, name="scene.toml"):
     out = tmp_path / "results"
     path = tmp_path / name
-    path.write_text(PLATES.format(out=out.as_posix(), iterations=iterations))
-    return path, out
+    return plates_scene(path, out, mesh_size=0.003, iterations=iterations), out
 
 
 def test_plates_scene_runs_and_writes_every_result(tmp_path):

@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import fem
 from contact.grasp import main
-from contact.rolling import rigid_part
 from contact.run import GraspRun
 from contact.scene import load_scene
 from contact.solver.held import MAX_TURN
@@ -36,7 +36,7 @@ def test_the_pinch_holds_its_ball_with_the_index_force_asked() -> None:
     assert res.friction is not None and res.friction.max_cone_use <= 1 + 1e-12
     assert res.total_contact_force("ball")[2] == pytest.approx(weight, rel=1e-9)
     # what turn is left to the linear model is small: the ball placed anew where it rolled
-    _, omega = rigid_part(ball.mesh.points, res.displacement["ball"])
+    _, omega = fem.rigid_part(ball.mesh.points, res.displacement["ball"])
     assert np.linalg.norm(omega) <= MAX_TURN
 
 

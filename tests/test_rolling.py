@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from contact.rolling import rigid_part, turned_placement
+from contact.rolling import turned_placement
 from contact.solver.anchors import Anchors
+from fem import rigid_part
 
 
 @pytest.fixture

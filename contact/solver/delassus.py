@@ -197,14 +197,16 @@ class ContactSpace:
         lam: NDArray[np.float64],
         a: NDArray[np.float64],
         bound: NDArray[np.bool_] | None = None,
+        g: NDArray[np.float64] | None = None,
     ) -> dict[str, BodyState]:
         """Every body's state under contact forces ``lam`` and rigid-mode amplitudes ``a``.
 
         The amplitudes are first taken least along the modes no binding row sees
-        (:meth:`gauged`, with ``bound``).
+        (:meth:`gauged`, with ``bound``); ``g`` is the system's ``G`` where it was built
+        (:attr:`ContactSystem.g`), else it is built again.
         """
         m = lam.size
-        a = self.gauged(e, lam, a, bound)
+        a = self.gauged(e, lam, a, bound, g)
         states = {}
         k = 0
         for body in self.bodies:
@@ -229,11 +231,13 @@ class ContactSpace:
         lam: NDArray[np.float64],
         a: NDArray[np.float64],
         bound: NDArray[np.bool_] | None = None,
+        g: NDArray[np.float64] | None = None,
     ) -> NDArray:
         """``a`` less its part along the modes that move no row that binds.
 
         ``bound``: the rows that bind (every normal row, open ones too: they must stay
-        open; a closed contact's tangential rows); default every row.
+        open; a closed contact's tangential rows); default every row. ``g``: the
+        system's ``G``, as for :meth:`states`.
 
         A ball squeezed by two force-driven pads moves with them along their normals
         without changing a gap, and a ball held by friction at two points turns freely
@@ -246,7 +250,7 @@ class ContactSpace:
         act = np.ones(m, dtype=bool) if bound is None else np.asarray(bound, dtype=bool)
         if not (self.planes or self.rotations) or not a.size or not act.any():
             return a
-        g = self.system_modes(e, m)[act]
+        g = (self.system_modes(e, m) if g is None else g)[act]
         _, sv, vt = np.linalg.svd(g, full_matrices=True)
         rank = int((sv > RANK_TOL * sv.max()).sum()) if sv.size and sv.max() > 0 else 0
         null = vt[rank:]
@@ -293,7 +297,7 @@ class ContactSpace:
         with fem.dense_threads(g0.size):
             sys_ = self.system(e, g0)
             lam, a = _saddle(sys_.w, sys_.g, sys_.rhs, sys_.c, list(sys_.free), sys_.load_scale)
-        return lam, self.states(e, lam, a)
+        return lam, self.states(e, lam, a, g=sys_.g)
 
     def solve_unilateral(
         self,
@@ -347,7 +351,7 @@ class ContactSpace:
                 sys_.w, sys_.g, sys_.rhs, sys_.c, tol=tol, start=again,
                 load_scale=sys_.load_scale,
             )
-        return res, self.states(e, res.lam, res.a)
+        return res, self.states(e, res.lam, res.a, g=sys_.g)
 
     def net_forces(self, modal: NDArray[np.float64]) -> dict[str, NDArray[np.float64]]:
         """Each free body's net force ``(3,)`` (N) from forces ``modal`` in its placing modes."""
@@ -414,7 +418,7 @@ class ContactSpace:
             a = held.T @ (held @ (carried / soft))
         net = self.net_forces(carried)
         out = LcpResult(res.lam, a, res.gap, res.steps, res.solved)
-        return out, self.states(e, res.lam, a), net
+        return out, self.states(e, res.lam, a, g=g), net
 
 
 def held_by_springs(sys_: ContactSystem) -> tuple[NDArray, NDArray, float]:

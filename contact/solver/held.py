@@ -19,6 +19,8 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
+import fem
+
 from .body import ElasticBody
 from .delassus import BodyState
 
@@ -227,10 +229,7 @@ def turned(bodies: Sequence[ElasticBody], states: Mapping[str, BodyState]) -> st
         rigid = states[b.name].rigid
         if not (b.solver.free_body and rigid.size):
             continue
-        v = (b.solver.modes @ rigid).reshape(-1, 3)
-        r = b.mesh.points - b.mesh.points.mean(axis=0)
-        j = (r * r).sum() * np.eye(3) - r.T @ r
-        omega = np.linalg.solve(j, np.cross(r, v - v.mean(axis=0)).sum(axis=0))
+        _, omega = fem.rigid_part(b.mesh.points, b.solver.modes @ rigid)
         angle = float(np.linalg.norm(omega))
         if angle > max(MAX_TURN, worst[0]):
             worst = (angle, b.name)

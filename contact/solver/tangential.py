@@ -271,7 +271,7 @@ class Friction:
         bound[: len(rows)] = True
         grip = (res.status > 0) & (tangent[:, 0] >= 0)
         bound[tangent[grip].ravel()] = True
-        return res, space.states(e, res.lam, res.a, bound), e, full, tangent
+        return res, space.states(e, res.lam, res.a, bound, sys_.g), e, full, tangent
 
     def _start(
         self,

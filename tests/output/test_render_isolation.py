@@ -8,35 +8,7 @@ import pytest
 import contact.output.pictures
 import contact.rendering
 from contact.grasp import main
-
-SCENE = """
-[ball]
-radius = 0.02
-kind = "solid"
-element = "hex"
-mesh_size = 0.006
-center = [0.0, 0.0, 0.02]
-material = {{ E = 1.0e6, nu = 0.3 }}
-
-[[plane]]
-name = "table"
-point = [0.0, 0.0, 0.0]
-normal = [0.0, 0.0, 1.0]
-
-[[plane]]
-name = "plate"
-point = [0.0, 0.0, 0.04]
-normal = [0.0, 0.0, -1.0]
-offsets = [[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, -0.002]]
-
-[frames]
-times = [0.5, 1.0]
-
-[output]
-directory = "{out}"
-pictures = true
-gif = true
-"""
+from tests.helpers import plates_scene
 
 
 def _abort(*args):
@@ -51,8 +23,7 @@ def _raise(*args, **kwargs):
 @pytest.mark.parametrize("how", ["raises", "dies"])
 def test_a_renderer_failure_leaves_complete_results(tmp_path, monkeypatch, caplog, how):
     out = tmp_path / "results"
-    scene = tmp_path / "scene.toml"
-    scene.write_text(SCENE.format(out=out.as_posix()))
+    scene = plates_scene(tmp_path / "scene.toml", out, pictures=True)
     monkeypatch.setattr(contact.rendering, "rendering_available", lambda: (True, "ok"))
     if how == "raises":
         monkeypatch.setattr(contact.rendering, "run_in_child", _raise)
