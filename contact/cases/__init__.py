@@ -1,10 +1,12 @@
 """Verification cases, not the product: Hertz contact, rigid-plane contact, and friction.
 
-Friction is checked against Cattaneo-Mindlin and Mindlin-Deresiewicz.
+Friction is checked against Cattaneo-Mindlin and Mindlin-Deresiewicz; a block and a long
+cylinder between plates against uniaxial compression and the Hertz line contact.
 """
 
 from __future__ import annotations
 
+from .block import BLOCK_HOLDS, BLOCK_MESHES, BlockCheck, block_check, block_mesh
 from .cattaneo import (
     CattaneoCheck,
     Hemisphere,
@@ -34,12 +36,22 @@ from .hertz_bodies import (
     hertz_two_bodies,
 )
 from .hertz_theory import HertzSolution, effective_modulus, hertz_sphere_on_plane
+from .line_contact import (
+    LineContactCheck,
+    LineContactSolution,
+    cylinder_between_plates,
+    line_contact_check,
+    quarter_cylinder_mesh,
+)
 from .mindlin_theory import MindlinSolution, dundurs_beta, mindlin_sphere_on_plane
 from .rigid import solve_rigid_contact
 
 __all__ = [
+    "BLOCK_HOLDS",
+    "BLOCK_MESHES",
     "HERTZ_MODELS",
     "SCENES",
+    "BlockCheck",
     "CattaneoCheck",
     "ContactPatch",
     "Hemisphere",
@@ -48,10 +60,15 @@ __all__ = [
     "HertzErrors",
     "HertzScene",
     "HertzSolution",
+    "LineContactCheck",
+    "LineContactSolution",
     "MindlinDeresiewiczCheck",
     "MindlinSolution",
     "StickZone",
+    "block_check",
+    "block_mesh",
     "cattaneo_check",
+    "cylinder_between_plates",
     "dundurs_beta",
     "effective_modulus",
     "graded_box_mesh",
@@ -62,11 +79,13 @@ __all__ = [
     "hertz_sphere_on_plane",
     "hertz_two_bodies",
     "interpolation_excess",
+    "line_contact_check",
     "measure_contact_patch",
     "measure_stick_zone",
     "mindlin_deresiewicz_check",
     "mindlin_sphere_on_plane",
     "moment_radius",
+    "quarter_cylinder_mesh",
     "solve_rigid_contact",
     "squeezed_hemisphere",
 ]
