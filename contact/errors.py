@@ -6,6 +6,7 @@ __all__ = [
     "BallError",
     "ContactError",
     "InputError",
+    "ObjectError",
     "OutputError",
     "PoseError",
     "RigError",
@@ -56,6 +57,10 @@ class InputError(ContactError, ValueError):
 
 class BallError(ContactError, ValueError):
     """A ball specification or mesh file is invalid; one line naming the field or file."""
+
+
+class ObjectError(ContactError, ValueError):
+    """An object's specification or mesh file is invalid; one line naming the key or file."""
 
 
 class SurfaceError(ContactError, ValueError):

@@ -1,0 +1,28 @@
+"""Solid objects from a user's mesh file (checked, filled with tetrahedra), placed per frame."""
+
+from __future__ import annotations
+
+from .meshing import boundary_triangles, mesh_object, object_faces, read_surface
+from .placed import SceneObject, from_ball, from_scene
+from .surface import (
+    DEGENERATE_AREA,
+    HAND_LENGTH,
+    MAX_EXTENT,
+    MIN_EXTENT,
+    check_object_surface,
+)
+
+__all__ = [
+    "DEGENERATE_AREA",
+    "HAND_LENGTH",
+    "MAX_EXTENT",
+    "MIN_EXTENT",
+    "SceneObject",
+    "boundary_triangles",
+    "check_object_surface",
+    "from_ball",
+    "from_scene",
+    "mesh_object",
+    "object_faces",
+    "read_surface",
+]

@@ -1,0 +1,190 @@
+"""An object's volume mesh from its file: a volume mesh used as it is, a surface filled.
+
+:func:`mesh_object` reads the file with :func:`fem.read_mesh`. A volume mesh is used as it
+is: the reader and :class:`fem.Mesh` already refuse inverted or degenerate cells (and turn
+a file wound the other way throughout), and its boundary surface goes through the checks of
+:func:`~contact.objects.surface.check_object_surface`. A file of surface cells (or one only
+pyvista reads) is checked the same way and filled with tetrahedra by
+:func:`fem.tetrahedralize` (fTetWild). Every error is one :class:`~contact.errors.ObjectError`
+line that starts with ``<where> = '<path>': ``.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+import fem
+
+from ..errors import ObjectError
+from .surface import check_object_surface
+
+__all__ = ["boundary_triangles", "mesh_object", "object_faces", "read_surface"]
+
+log = logging.getLogger(__name__)
+
+
+def _reword(exc: fem.MeshError, path: Path) -> str:
+    """A reader's message without its own mention of the file (the prefix names it)."""
+    text = str(exc)
+    for said in (f"mesh file {path}: ", f"mesh file {path} ", f"{path}: "):
+        text = text.replace(said, "")
+    return text
+
+
+def read_surface(
+    path: str | os.PathLike, *, where: str = "object.mesh"
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """The triangles of a surface file pyvista (or meshio through it) reads, unchecked.
+
+    Polygons are split into triangles; lines and vertices are ignored; a volume file
+    gives its outer surface.
+
+    Raises
+    ------
+    ObjectError
+        The file is missing or unreadable, or holds no polygons.
+    """
+    import pyvista as pv
+
+    path = Path(path)
+    prefix = f"{where} = '{path}': "
+    if not path.is_file():
+        raise ObjectError(prefix + ("not a file" if path.exists() else "no such file"))
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")  # a failing VTK reader only warns
+        try:
+            data: Any = pv.read(path)
+        except Exception as exc:
+            why = str(exc).strip().splitlines()[0][:200] if str(exc).strip() else ""
+            raise ObjectError(f"{prefix}cannot be read: {type(exc).__name__}: {why}") from None
+    if isinstance(data, pv.MultiBlock):
+        data = data.combine()
+    if not isinstance(data, pv.PolyData):
+        with warnings.catch_warnings():  # pyvista's notice of a future default
+            warnings.simplefilter("ignore")
+            data = data.extract_surface()
+    if data.faces.size == 0:
+        if said and data.n_points == 0:
+            why = str(said[0].message).strip().splitlines()[0][:200]
+            raise ObjectError(f"{prefix}cannot be read: {why}")
+        raise ObjectError(f"{prefix}holds no triangles or polygons")
+    poly = data.triangulate()
+    return np.asarray(poly.points, np.float64), np.asarray(poly.regular_faces, np.int64)
+
+
+def boundary_triangles(mesh: fem.Mesh) -> NDArray[np.int64]:
+    """The mesh's boundary faces as triangles, outward (each quad split along 0-2)."""
+    faces = mesh.boundary.faces
+    parts = [faces.get("triangle", np.zeros((0, 3), np.int64))]
+    if "quad" in faces:
+        q = faces["quad"]
+        parts += [q[:, [0, 1, 2]], q[:, [0, 2, 3]]]
+    return np.concatenate(parts).astype(np.int64)
+
+
+def object_faces(mesh: fem.Mesh) -> fem.BoundaryFaces:
+    """The faces of a solid object that can touch: every boundary face, outward."""
+    return mesh.boundary
+
+
+def _read_volume(path: Path, prefix: str) -> tuple[fem.Mesh | None, str | None]:
+    """The file's volume mesh, or None and meshio's reason when it may be a surface."""
+    try:
+        return fem.read_mesh(path), None
+    except fem.NoVolumeCellsError as exc:
+        if exc.surface:
+            return None, None
+        found = ", ".join(exc.cell_types) or "none"
+        raise ObjectError(
+            f"{prefix}holds neither volume cells nor a triangle surface (cell types: {found})"
+        ) from None
+    except fem.MeshError as exc:
+        text = _reword(exc, path)
+        if "unknown format" in text:  # meshio's: pyvista may know it (VTP, ...)
+            return None, text
+        if text.startswith("cannot read (") and text.endswith(")"):
+            text = f"cannot be read {text[len('cannot read (') : -1]}"
+        raise ObjectError(f"{prefix}{text}") from None
+
+
+def mesh_object(
+    path: str | os.PathLike,
+    mesh_size: float | None = None,
+    *,
+    where: str = "object.mesh",
+    **tetwild_options: Any,
+) -> fem.Mesh:
+    """Read, check and if need be fill an object's mesh file.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A volume mesh meshio reads (used as it is), or a closed triangle surface meshio or
+        pyvista reads (STL, OBJ, PLY, VTP, ...), in metres.
+    mesh_size : float or None
+        Target tetrahedron edge length (m) for a surface; None: the surface's mean edge
+        length. Ignored for a volume mesh.
+    where : str
+        The scene key that gave the file (``object[1].mesh``), starting every message.
+    **tetwild_options
+        Passed on to :func:`fem.tetrahedralize` for a surface (``optimize=False`` or a
+        looser ``epsilon`` make large surfaces much faster).
+
+    Returns
+    -------
+    fem.Mesh
+        Positively oriented cells (tetrahedra from a surface, region 0).
+
+    Raises
+    ------
+    ObjectError
+        One line ``<where> = '<path>': <what is wrong>``: a missing or unreadable file, a
+        bad surface (:func:`~contact.objects.surface.check_object_surface`), a bad volume
+        mesh (inverted or degenerate cells, non-manifold faces), or fTetWild's failure.
+
+    Warns
+    -----
+    UserWarning
+        A surface wound inward, flipped.
+    """
+    path = Path(path)
+    prefix = f"{where} = '{path}': "
+    if mesh_size is not None and not (math.isfinite(mesh_size) and mesh_size > 0):
+        raise ObjectError(f"{where}_size = {mesh_size!r}: must be a positive length in metres")
+    if not path.is_file():
+        raise ObjectError(prefix + ("not a file" if path.exists() else "no such file"))
+    mesh, unread = _read_volume(path, prefix)
+    if mesh is not None:
+        try:
+            tri = boundary_triangles(mesh)
+        except fem.MeshError as exc:
+            raise ObjectError(f"{prefix}{exc}") from None
+        check_object_surface(mesh.points, tri, path, where=where)
+        log.info("%s = '%s': a volume mesh of %d cells, used as it is", where, path, mesh.n_cells)
+        return mesh
+    try:
+        surface = read_surface(path, where=where)
+    except ObjectError:
+        if unread is None:
+            raise
+        raise ObjectError(f"{prefix}cannot be read: {unread}") from None
+    points, tri = check_object_surface(*surface, path, where=where)
+    log.info(
+        "%s = '%s': a surface of %d triangles, filled with tetrahedra (edge %s)",
+        where,
+        path,
+        len(tri),
+        "its mean edge length" if mesh_size is None else f"{mesh_size:g} m",
+    )
+    try:
+        return fem.tetrahedralize((points, tri), mesh_size, **tetwild_options)
+    except fem.MeshError as exc:
+        raise ObjectError(f"{prefix}cannot be filled with tetrahedra: {exc}") from None

@@ -1,0 +1,198 @@
+"""A body other than the hand as a run places it, frame by frame: the ball or an ``[[object]]``.
+
+A :class:`SceneObject` holds what lasts across frames (its mesh at the scene placement,
+its material, the faces that can touch, its own loads) and what its placement adds at
+each frame: the joint it follows, the turn it has rolled (:mod:`contact.rolling`), its
+weight and external load. :meth:`SceneObject.body` gives the placed
+:class:`~contact.solver.body.ElasticBody`, factored once and again only when the
+placement turns it (a translation shares the factorisation). A ``fixed`` object is
+rigid and held by the world: every node prescribed, its reactions the contact forces.
+"""
+
+from __future__ import annotations
+
+import logging
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+import fem
+
+from ..ball import LOCKING_NOTE, LOCKING_NU, Ball
+from ..geometry.surfacequery import TriangleSurface, surface_of_mesh
+from ..hand.objects import ObjectAssociation
+from ..scene.model import Follow
+from ..scene.objects import ObjectScene
+from ..solver.body import ElasticBody
+
+__all__ = ["SceneObject", "from_ball", "from_scene"]
+
+log = logging.getLogger(__name__)
+
+#: The external force and moment on an object at a time (N, N m), or None.
+LoadAt = Callable[[float], "tuple[NDArray[np.float64], NDArray[np.float64]]"]
+
+
+@dataclass
+class SceneObject:
+    """A ball or an object, placed for each frame.
+
+    Parameters
+    ----------
+    name : str
+        Its body name in results (``"ball"``, an ``[[object]]``'s name).
+    mesh : fem.Mesh
+        At its scene placement (hand frame).
+    material : fem.LinearElastic
+    faces : fem.BoundaryFaces
+        The faces that can touch (a hollow ball's outer sphere; an object's boundary).
+    loads : ndarray, shape (3N,)
+        Its own loads at the scene placement (a hollow ball's pressure), turned with it.
+    nodal_pressure : bool
+        Tetrahedra with averaged nodal pressures.
+    follow : Follow or None
+        The joint it follows.
+    fixed : bool
+        Rigid, held by the world.
+    centre : ndarray, shape (3,)
+        The point about which an external load's moment is given, at the scene placement.
+    """
+
+    name: str
+    mesh: fem.Mesh
+    material: fem.LinearElastic
+    faces: fem.BoundaryFaces
+    loads: NDArray[np.float64]
+    nodal_pressure: bool = False
+    follow: Follow | None = None
+    fixed: bool = False
+    centre: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
+    _body: ElasticBody | None = field(default=None, init=False, repr=False)
+    _key: bytes = field(default=b"", init=False, repr=False)
+
+    @property
+    def rolls(self) -> bool:
+        """A free object, placed by its contacts alone: it may roll (neither follows nor fixed)."""
+        return not self.fixed and self.follow is None
+
+    def transform(self, skeleton: object, pose: Callable | None, t: float) -> NDArray[np.float64]:
+        """Its rigid placement at ``t`` from the scene's (4x4): its joint's, if it follows one."""
+        if self.follow is None or skeleton is None or pose is None:
+            return np.eye(4)
+        f = self.follow
+        assoc = ObjectAssociation(self.name, f.joint, f.start, f.stop)
+        return assoc.transform(skeleton, pose, t)
+
+    def points(self, tf: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Its nodes placed by ``tf``."""
+        return self.mesh.points @ tf[:3, :3].T + tf[:3, 3]
+
+    def surface(self, tf: NDArray[np.float64]) -> TriangleSurface:
+        """Its contact surface placed by ``tf``: the facets the contact search meets."""
+        tri = surface_of_mesh(self.mesh, self.faces)[1]
+        return TriangleSurface(self.points(tf), tri, name=self.name)
+
+    def body(
+        self,
+        tf: NDArray[np.float64],
+        t: float,
+        gravity: tuple[float, float, float] | None,
+        backend: str,
+        load: LoadAt | None = None,
+    ) -> ElasticBody:
+        """The body placed by ``tf`` at ``t``: own loads, gravity and the external ``load``.
+
+        Factored again only when ``tf`` turns it; a translation shares the factorisation.
+        ``load`` (``t -> (force, moment)``, the moment about :attr:`centre` placed by
+        ``tf``) is spread by nodal volume (:func:`fem.loads.resultant_load`).
+        """
+        key = np.round(tf[:3, :3], 12).tobytes()
+        x = self.points(tf)
+        if self._body is None or key != self._key:
+            mesh = fem.Mesh(x, self.mesh.cells, self.mesh.regions)
+            loads = self.loads.reshape(-1, 3) @ tf[:3, :3].T
+            if gravity is not None and not self.fixed:
+                loads = loads + fem.gravity_load(mesh, self.material, gravity).reshape(-1, 3)
+            prescribed = np.arange(3 * len(x)) if self.fixed else None
+            self._body = ElasticBody(
+                self.name,
+                mesh,
+                self.material,
+                prescribed=prescribed,
+                loads=loads.ravel(),
+                contact_faces=self.faces,
+                backend=backend,
+                nodal_pressure=self.nodal_pressure,
+            )
+            self._key = key
+            return self._loaded(self._body, tf, t, load)
+        return self._loaded(self._body.translated(x), tf, t, load)
+
+    def _loaded(
+        self, body: ElasticBody, tf: NDArray[np.float64], t: float, load: LoadAt | None
+    ) -> ElasticBody:
+        """``body`` with the external load at ``t`` added, nothing refactored."""
+        if load is None:
+            return body
+        force, moment = load(t)
+        centre = tf[:3, :3] @ self.centre + tf[:3, 3]
+        weights = fem.loads.nodal_volumes(body.mesh)
+        f = fem.loads.resultant_load(body.mesh.points, weights, force, moment, centre)
+        return body.with_loads(body.loads + f.ravel())
+
+
+def from_ball(ball: Ball, follow: Follow | None) -> SceneObject:
+    """The scene's ball as an object named ``"ball"``."""
+    return SceneObject(
+        "ball",
+        ball.mesh,
+        ball.material,
+        ball.outer,
+        ball.loads,
+        ball.nodal_pressure,
+        follow=follow,
+        centre=np.asarray(ball.spec.center, dtype=np.float64),
+    )
+
+
+def nodal_pressure(mesh: fem.Mesh, nu: float, asked: bool | None, where: str) -> bool:
+    """Averaged nodal pressures for tetrahedra whose ``nu`` would lock, unless refused.
+
+    Refused (``asked`` False) on such tetrahedra: a warning that they lock.
+    """
+    tets = "tetra" in mesh.cells
+    if asked is None:
+        return tets and nu > LOCKING_NU
+    if not asked and tets and nu > LOCKING_NU:
+        warnings.warn(
+            f"{where}.material.nu = {nu:g} on linear tetrahedra with {where}.nodal_pressure "
+            f"= false: {LOCKING_NOTE}; averaged nodal pressures (the default) do not lock",
+            stacklevel=3,
+        )
+    return bool(asked)
+
+
+def from_scene(spec: ObjectScene, mesh: fem.Mesh, where: str) -> SceneObject:
+    """An ``[[object]]`` from its table and its mesh in its own coordinates.
+
+    The mesh is placed by the table's ``rotation`` and ``center``; every boundary face can
+    touch.
+    """
+    tf = spec.placement
+    placed = fem.Mesh(mesh.points @ tf[:3, :3].T + tf[:3, 3], mesh.cells, mesh.regions)
+    material = spec.elastic
+    nodal = nodal_pressure(placed, material.nu, spec.nodal_pressure, where)
+    return SceneObject(
+        spec.name,
+        placed,
+        material,
+        placed.boundary,
+        np.zeros(3 * len(placed.points)),
+        nodal,
+        follow=spec.follow,
+        fixed=spec.fixed,
+        centre=placed.points.mean(axis=0),
+    )
