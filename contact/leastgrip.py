@@ -151,8 +151,10 @@ class LeastGrip:
         }  # fmt: skip
 
 
-def measure(result: FrameResult, scene: Scene, body: str = "ball") -> float | None:
+def measure(result: FrameResult, scene: Scene, body: str | None = None) -> float | None:
     """Friction available over friction needed by ``body`` in one frame, or None.
+
+    ``body`` None: the least over the scene's free objects (:attr:`Scene.free_objects`).
 
     Held: the sum of ``mu N`` over the body's contacts over the sum of the magnitudes of
     the tangential forces of its pairs. Not held by friction (:attr:`FrameResult.slip`):
@@ -169,6 +171,10 @@ def measure(result: FrameResult, scene: Scene, body: str = "ball") -> float | No
         return c / (c + f) if c + f > 0 else None
     if result.held is not True or result.friction is None:
         return None
+    if body is None:
+        each = [measure(result, scene, name) for name in scene.free_objects]
+        found = [h for h in each if h is not None]
+        return min(found) if found else None
     c = result.contacts or {}
     names = [str(n) for n in c.get("pair", ())]
     forces = [abs(float(x)) for x in c.get("force", ())]
@@ -193,7 +199,7 @@ def _pair_mu(scene: Scene, pair: str, body: str) -> float:
     if other is None:
         return 0.0
     try:
-        return scene.friction(other)
+        return scene.friction(other, body)
     except KeyError:
         return 0.0
 

@@ -34,7 +34,6 @@ import numpy as np
 import fem
 
 from .errors import ContactError, InputError, OutputError, TargetError
-from .geometry.surfacequery import TriangleSurface, surface_of_mesh
 from .hand.fingers import fingertips, node_parts
 from .hand.posing import Pose
 from .output.plainjson import jsonable
@@ -65,23 +64,22 @@ def pose_frame(run: GraspRun, t: float, start: Pose | None = None) -> tuple[Pose
     -------
     pose : Pose
         The posed hand.
-    ball : fem.Mesh
-        The placed ball.
+    objects : dict of str to fem.Mesh
+        Each placed object (the ball, the ``[[object]]`` meshes), by name.
     record : dict
         ``angles``, ``auto_flexion`` (as a grasp run records it), ``min_tet_quality``,
         ``parts``: part name -> ``nearest`` ``{node, position, distance}`` (the part's
-        skin node nearest the ball) and, for a finger, ``tip`` likewise.
+        skin node nearest any object) and, for a finger, ``tip`` likewise.
     """
     hand = run.hand
     assert hand is not None and run.poser is not None
     angles = run.angles(t)
     pose = run.poser.pose(angles, start=start)
-    tf = run.ball_transform(t)
-    m = run.ball.mesh
-    ball = fem.Mesh(m.points @ tf[:3, :3].T + tf[:3, 3], m.cells, m.regions)
-    surface = TriangleSurface(
-        ball.points, surface_of_mesh(ball, run.ball.outer)[1], name="ball surface"
-    )
+    objects = {}
+    for o in run.objects:
+        x = o.points(run.placement(o, t))
+        objects[o.name] = fem.Mesh(x, o.mesh.cells, o.mesh.regions)
+    surface = run.object_surfaces(t)
     names = hand.part_names
     parts = node_parts(hand.flesh, len(names))
     skin = hand.skin_faces.nodes
@@ -107,7 +105,7 @@ def pose_frame(run: GraspRun, t: float, start: Pose | None = None) -> tuple[Pose
     for (finger, node), d in zip(tips.items(), d_tip, strict=True):
         out.setdefault(finger, {})["tip"] = point(node, d)
     record["parts"] = out
-    return pose, ball, jsonable(record)
+    return pose, objects, jsonable(record)
 
 
 def pose_only(
@@ -163,7 +161,7 @@ def pose_only(
         records = _write_frames(GraspRun(scene), times, chosen, staging, quiet)
         doc = {"scene": str(scene.path), "units": "m", "frames": records}
         write_atomic(staging / "pose.json", (json.dumps(doc, indent=2) + "\n").encode())
-        for body in ("hand", "ball"):
+        for body in records[0]["files"] if records else ():
             write_pvd(staging / f"{body}.pvd", [(r["time"], r["files"][body]) for r in records])
         stage.swap()
     except (OutputError, OSError) as exc:
@@ -192,12 +190,14 @@ def _write_frames(
     n_parts = len(run.hand.part_names)
     for i in chosen:
         t = times[i]
-        pose, ball, rec = pose_frame(run, t, start=pose)
+        pose, objects, rec = pose_frame(run, t, start=pose)
         mesh = pose.mesh()
-        files = {"hand": f"hand_{i:04d}.vtu", "ball": f"ball_{i:04d}.vtu"}
+        files = {"hand": f"hand_{i:04d}.vtu"}
+        files.update({name: f"{name}_{i:04d}.vtu" for name in objects})
         data = {"part": node_parts(mesh, n_parts), "bone_id": run.hand.bone_id}
         fem.write_mesh(staging / files["hand"], mesh, point_data=data)
-        fem.write_mesh(staging / files["ball"], ball)
+        for name, m in objects.items():
+            fem.write_mesh(staging / files[name], m)
         records.append({"index": i, "time": t, **rec, "files": files})
         if not quiet:
             near = {k: v["nearest"]["distance"] for k, v in rec["parts"].items() if "nearest" in v}

@@ -37,13 +37,14 @@ import fem
 from .ball import LOCKING_NOTE, LOCKING_NU, Ball, make_ball
 from .fingerforce import FIRST_PRESS, Target, drive, finger_forces, guess, remember
 from .geometry.plane import Plane
-from .geometry.surfacequery import TriangleSurface, surface_of_mesh
+from .geometry.surfacequery import TriangleSurface
 from .hand.autoflex import auto_flex, mesh_distance
 from .hand.fingers import node_parts
 from .hand.keyframes import Keyframes
-from .hand.objects import ObjectAssociation
 from .hand.posing import HandPoser, Pose
 from .hand.shipped import load_hand
+from .objects.meshing import mesh_object
+from .objects.placed import SceneObject, from_ball, from_scene
 from .rolling import MAX_ROLLS, ROLL, turned_placement
 from .scene.model import PlaneScene
 from .scene.spec import Scene
@@ -70,8 +71,11 @@ class GraspRun:
 
     Attributes
     ----------
-    ball : contact.ball.Ball
-        The ball's mesh, material and loads at its scene position.
+    ball : contact.ball.Ball or None
+        The ball's mesh, material and loads at its scene position (None: no ``[ball]``).
+    objects : list of SceneObject
+        The ball (first, when the scene has one) and the ``[[object]]`` meshes, at their
+        scene placements.
     hand : contact.hand.shipped.Hand or None
         The shipped hand, with its poser and keyframes, when the scene has one.
     limits : dict of str to float
@@ -86,9 +90,8 @@ class GraspRun:
     """
 
     scene: Scene
-    ball: Ball = field(init=False)
-    _ball_body: ElasticBody | None = field(default=None, init=False)
-    _ball_key: bytes = field(default=b"", init=False)
+    ball: Ball | None = field(init=False)
+    objects: list[SceneObject] = field(init=False)
     _hand_body: ElasticBody | None = field(default=None, init=False)
     _hand_key: bytes = field(default=b"", init=False)
     _pose: Pose | None = field(default=None, init=False)
@@ -99,13 +102,20 @@ class GraspRun:
     positions: dict[str, NDArray[np.float64]] = field(default_factory=dict, init=False)
     _last_time: float | None = field(default=None, init=False, repr=False)
     _frame_time: float | None = field(default=None, init=False, repr=False)
-    # a free ball's placement anew after it rolled (contact.rolling), on its scene placement
-    _roll: NDArray[np.float64] = field(default_factory=lambda: np.eye(4), init=False, repr=False)
+    # each free object's placement anew after it rolled (contact.rolling), on its scene's
+    _rolls: dict[str, NDArray[np.float64]] = field(default_factory=dict, init=False, repr=False)
     _started: bool = field(default=False, init=False, repr=False)
 
     def __post_init__(self) -> None:
         sc = self.scene
-        self.ball = make_ball(sc.ball)
+        self.ball = None if sc.ball is None else make_ball(sc.ball)
+        self.objects = []
+        if self.ball is not None:
+            self.objects.append(from_ball(self.ball, sc.follow))
+        for i, o in enumerate(sc.objects):
+            where = f"object[{i}]"
+            mesh = mesh_object(o.mesh, o.mesh_size, where=f"{where}.mesh")
+            self.objects.append(from_scene(o, mesh, where))
         self.hand = None
         self.poser = None
         self.nodal_pressure = False
@@ -149,7 +159,7 @@ class GraspRun:
         angles = self.keyframes.pose(t)
         self.auto_flexed: dict[str, dict] = {}
         self._pressed: dict[str, float] = {}
-        ball = mesh_distance(self._ball_surface(t))
+        ball = mesh_distance(self.object_surfaces(t))
         for af in self._flexions(t):
             res = auto_flex(
                 self.hand,
@@ -192,66 +202,41 @@ class GraspRun:
             if af.times is None or any(abs(t - s) <= 1e-12 for s in af.times)
         ]
 
-    def ball_transform(self, t: float) -> NDArray[np.float64]:
-        """Rigid placement of the ball at ``t`` from its scene position (4x4)."""
-        follow = self.scene.follow
-        if follow is None or self.hand is None:
-            return np.eye(4)
-        assoc = ObjectAssociation("ball", follow.joint, follow.start, follow.stop)
-        return assoc.transform(self.hand.skeleton, self.keyframes.pose, t)  # type: ignore[union-attr]
+    def placement(self, obj: SceneObject, t: float) -> NDArray[np.float64]:
+        """The rigid placement of ``obj`` at ``t`` from its scene's (4x4): joint, then roll."""
+        pose = self.keyframes.pose if self.keyframes is not None else None
+        skeleton = self.hand.skeleton if self.hand is not None else None
+        return self._rolls.get(obj.name, np.eye(4)) @ obj.transform(skeleton, pose, t)
 
-    def _ball_surface(self, t: float) -> TriangleSurface:
-        """The ball's contact surface placed for ``t``: the facets the contact search meets."""
-        tf = self._roll @ self.ball_transform(t)
-        x = self.ball.mesh.points @ tf[:3, :3].T + tf[:3, 3]
-        return TriangleSurface(x, surface_of_mesh(self.ball.mesh, self.ball.outer)[1], name="ball")
+    def ball_transform(self, t: float) -> NDArray[np.float64]:
+        """Rigid placement of the first object (the ball) at ``t`` from its scene position."""
+        return self.placement(self.objects[0], t)
+
+    def object_surfaces(self, t: float) -> TriangleSurface:
+        """Every object's contact surface placed for ``t``, as one: what a finger closes on."""
+        parts = [o.surface(self.placement(o, t)) for o in self.objects]
+        offsets = np.cumsum([0] + [len(p.points) for p in parts])
+        return TriangleSurface(
+            np.concatenate([p.points for p in parts]),
+            np.concatenate([p.triangles + k for p, k in zip(parts, offsets)]),
+            name=" and ".join(o.name for o in self.objects),
+        )
+
+    def object_body(self, obj: SceneObject, t: float) -> ElasticBody:
+        """``obj`` placed for ``t``, with its loads (own, gravity, ``ball.load`` for the ball).
+
+        The load is the scene's (a :meth:`restart` may change it), not the meshed ball's.
+        """
+        sc = self.scene
+        load = None
+        if obj.name == "ball" and sc.ball is not None and sc.ball.load:
+            load = sc.ball.load_at
+        tf = self.placement(obj, t)
+        return obj.body(tf, t, sc.gravity, sc.solver.linear_solver, load)
 
     def ball_body(self, t: float) -> ElasticBody:
-        """The ball placed for ``t``; refactored only when its placement turns it.
-
-        Its loads: its own (pressure), gravity, and ``ball.load`` at ``t``.
-        """
-        tf = self._roll @ self.ball_transform(t)
-        key = np.round(tf[:3, :3], 12).tobytes()
-        x = self.ball.mesh.points @ tf[:3, :3].T + tf[:3, 3]
-        if self._ball_body is None or key != self._ball_key:
-            mesh = self._placed_mesh(x)
-            loads = self.ball.loads.reshape(-1, 3) @ tf[:3, :3].T
-            g = self.scene.gravity
-            if g is not None:
-                loads = loads + fem.gravity_load(mesh, self.ball.material, g).reshape(-1, 3)
-            self._ball_body = ElasticBody(
-                "ball",
-                mesh,
-                self.ball.material,
-                loads=loads.ravel(),
-                contact_faces=self.ball.outer,
-                backend=self.scene.solver.linear_solver,
-                nodal_pressure=self.ball.nodal_pressure,
-            )
-            self._ball_key = key
-            return self._ball_loaded(self._ball_body, tf, t)
-        # a translation: same stiffness, same factorisation, moved points
-        return self._ball_loaded(self._ball_body.translated(x), tf, t)
-
-    def _ball_loaded(self, body: ElasticBody, tf: NDArray[np.float64], t: float) -> ElasticBody:
-        """The placed ball with ``ball.load`` at ``t`` added to its loads, nothing refactored.
-
-        Spread by nodal volume, the moment about the ball's centre placed by ``tf``. The
-        load is the scene's (a :meth:`restart` may change it), not the meshed ball's.
-        """
-        spec = self.scene.ball
-        if not spec.load:
-            return body
-        force, moment = spec.load_at(t)
-        centre = tf[:3, :3] @ np.asarray(spec.center, float) + tf[:3, 3]
-        weights = fem.loads.nodal_volumes(body.mesh)
-        f = fem.loads.resultant_load(body.mesh.points, weights, force, moment, centre)
-        return body.with_loads(body.loads + f.ravel())
-
-    def _placed_mesh(self, x: NDArray[np.float64]) -> fem.Mesh:
-        m = self.ball.mesh
-        return fem.Mesh(x, m.cells, m.regions)
+        """The first object (the ball) placed for ``t``."""
+        return self.object_body(self.objects[0], t)
 
     def hand_body(self, angles: dict[str, float]) -> ElasticBody:
         """The hand posed for ``angles``, factored once per distinct pose."""
@@ -287,7 +272,7 @@ class GraspRun:
         out.__dict__.update(self.__dict__)
         out.scene = scene
         out.anchors = None
-        out._roll = np.eye(4)
+        out._rolls = {}
         out._last_time = None
         out._started = False
         out.positions = {}
@@ -346,11 +331,11 @@ class GraspRun:
         if not targets:
             return self._solve_pose(t, angles, callback)
         # every trial from the same history, its flesh relaxed from the same pose
-        kept = (self.anchors, dict(self.positions), self._pose, self._roll)
+        kept = (self.anchors, dict(self.positions), self._pose, dict(self._rolls))
 
         def trial(pose: dict[str, float]) -> tuple[tuple, dict[str, float]]:
             self.anchors, self.positions, self._pose = kept[0], dict(kept[1]), kept[2]
-            self._roll = kept[3]
+            self._rolls = dict(kept[3])
             out = self._solve_pose(t, pose, callback)
             return out, finger_forces(out[0].contact_fields.get("hand"), self._parts(), targets)
 
@@ -398,39 +383,46 @@ class GraspRun:
     ) -> tuple[FrameResult, dict, list[Plane], list[ElasticBody]]:
         """Solve the contact at time ``t`` with the hand at ``angles``.
 
-        A free ball that turns past :data:`contact.rolling.ROLL` is placed anew, turned
+        A free object that turns past :data:`contact.rolling.ROLL` is placed anew, turned
         and moved by its rigid motion, and the frame solved again from the same history.
         """
         before = (self.anchors, dict(self.positions))
         out = self._solve_placed(t, angles, callback)
-        best: tuple[float, tuple, NDArray[np.float64]] | None = None
-        for _ in range(MAX_ROLLS if self.scene.follow is None else 0):
-            result, ball = out[0], out[3][0]
-            settled = result.converged or result.stop_reason.startswith("ball turned")
-            move, omega = fem.rigid_part(ball.mesh.points, result.displacement["ball"])
-            turn = float(np.linalg.norm(omega))
+        free = [o.name for o in self.objects if o.rolls]
+        best: tuple[float, tuple, dict] | None = None
+        for _ in range(MAX_ROLLS if free else 0):
+            result, bodies = out[0], {b.name: b for b in out[3]}
+            stop = result.stop_reason
+            settled = result.converged or any(stop.startswith(f"{n} turned") for n in free)
             if not settled:
-                break  # a ball not held is where a soft spring left it: no placement
+                break  # an object not held is where a soft spring left it: no placement
+            rigid = {n: fem.rigid_part(bodies[n].mesh.points, result.displacement[n]) for n in free}
+            turns = {n: float(np.linalg.norm(omega)) for n, (_, omega) in rigid.items()}
+            turn = max(turns.values())
             if best is not None and turn > 0.5 * best[0]:
                 break  # placed anew, it turns about as much again (a pivot friction hardly holds)
-            best = (turn, out, self._roll)
+            best = (turn, out, dict(self._rolls))
             if turn <= ROLL:
                 break
-            log.info(
-                "t = %g: the ball turned %.3g deg: placed anew and solved again",
-                t, np.degrees(turn),
-            )  # fmt: skip
-            self._roll = turned_placement(ball.mesh.points, move, omega) @ self._roll
-            # the same history: the frame starts where the ball was (at rest, first frame)
+            for n in free:
+                if turns[n] > ROLL:
+                    log.info(
+                        "t = %g: %s turned %.3g deg: placed anew and solved again",
+                        t, n, np.degrees(turns[n]),
+                    )  # fmt: skip
+                    move, omega = rigid[n]
+                    turn_n = turned_placement(bodies[n].mesh.points, move, omega)
+                    self._rolls[n] = turn_n @ self._rolls.get(n, np.eye(4))
+            # the same history: the frame starts where the objects were (at rest, first frame)
             start = before[0] or Anchors(
-                displacement={"ball": np.zeros_like(ball.mesh.points)},
-                reference={"ball": ball.mesh.points.copy()},
+                displacement={n: np.zeros_like(bodies[n].mesh.points) for n in free},
+                reference={n: bodies[n].mesh.points.copy() for n in free},
             )
             self.anchors, self.positions = start, dict(before[1])
             out = self._solve_placed(t, angles, callback)
         if best is not None and best[1] is not out:
             # the placement that left the least turn: its state is the history carried on
-            out, self._roll = best[1], best[2]
+            out, self._rolls = best[1], best[2]
             self.anchors = out[0].anchors  # type: ignore[assignment]
             self.positions.update(
                 {p.name: out[0].plane_positions[p.name] for p in self.scene.planes if p.driven}
@@ -440,26 +432,34 @@ class GraspRun:
     def _solve_placed(
         self, t: float, angles: dict[str, float], callback: Callable[[IterationRecord], None] | None
     ) -> tuple[FrameResult, dict, list[Plane], list[ElasticBody]]:
-        """Set up and solve the contact at time ``t``, the ball where it is placed now."""
+        """Set up and solve the contact at time ``t``, the objects where they are placed now."""
         sc = self.scene
         t0 = time.perf_counter()
-        ball = self.ball_body(t)
-        bodies = [ball]
+        objects = [self.object_body(o, t) for o in self.objects]
+        bodies = list(objects)
         pairs: list[ContactPair] = []
+        for i, a in enumerate(objects):  # each object against the later ones, both ways
+            for b in objects[i + 1 :]:
+                mu = sc.friction(b.name, a.name)
+                pairs += [ContactPair(a, b, friction=mu), ContactPair(b, a, friction=mu)]
         extra: dict = {}
         if self.hand is not None:
             hand = self.hand_body(angles)
-            check_bones(self.hand, self._pose, ball, t)  # type: ignore[arg-type]
+            for o in objects:
+                check_bones(self.hand, self._pose, o, t)  # type: ignore[arg-type]
             bodies.append(hand)
-            mu = sc.friction("hand")
-            pairs += [ContactPair(ball, hand, friction=mu), ContactPair(hand, ball, friction=mu)]
+            for o in objects:
+                mu = sc.friction("hand", o.name)
+                pairs += [ContactPair(o, hand, friction=mu), ContactPair(hand, o, friction=mu)]
             extra["angles"] = angles
             if self.auto_flexed:
                 extra["auto_flexion"] = self.auto_flexed
             assert self._pose is not None
             extra["min_tet_quality"] = float(self._pose.min_quality)
         planes = [self._plane(p, t) for p in sc.planes]
-        pairs = [ContactPair(ball, p, friction=sc.friction(p.name)) for p in planes] + pairs
+        pairs = [
+            ContactPair(o, p, friction=sc.friction(p.name, o.name)) for o in objects for p in planes
+        ] + pairs
         setup = time.perf_counter() - t0
         # steps 2 to 5
         settings = sc.solver.settings(self.limits)

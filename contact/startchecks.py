@@ -1,4 +1,4 @@
-"""A scene's start: a ball inside a bone is refused, one inside the skin or a plane warned of."""
+"""A scene's start: an object inside a bone is refused, one inside the skin or a plane warned of."""
 
 from __future__ import annotations
 
@@ -22,7 +22,10 @@ log = logging.getLogger(__name__)
 
 
 def check_bones(hand: Hand, pose: Pose, ball: ElasticBody, t: float) -> None:
-    """Refuse a ball that starts inside a bone of the posed hand: its contact cannot be resolved.
+    """Refuse an object that starts inside a bone of the posed hand: no contact resolves it.
+
+    Its contact nodes inside a bone's closed surface (winding number), for the ball and
+    any ``[[object]]`` alike.
 
     Raises
     ------
@@ -38,8 +41,9 @@ def check_bones(hand: Hand, pose: Pose, ball: ElasticBody, t: float) -> None:
         lo, hi = pts.min(axis=0), pts.max(axis=0)
         near = np.all((x >= lo) & (x <= hi), axis=1)
         if near.any() and (s.winding_number(x[near]) > 0.5).any():
+            what = "the ball" if ball.name == "ball" else f"object {ball.name!r}"
             raise InputError(
-                f"frame t = {t:g}: the ball starts inside bone {name}: place the ball "
+                f"frame t = {t:g}: {what} starts inside bone {name}: place {what} "
                 "or close the hand less"
             )
 
@@ -47,7 +51,7 @@ def check_bones(hand: Hand, pose: Pose, ball: ElasticBody, t: float) -> None:
 def warn_overlaps(
     t: float, bodies: Sequence[ElasticBody], planes: Sequence[PlaneScene], tolerance: float
 ) -> None:
-    """Warn where the ball starts inside the skin or a plane deeper than the tolerance.
+    """Warn where an object starts inside the skin, a plane or another object, too deep.
 
     Called at the scene's start (the first frame solved), before any contact solve: the
     hand as posed there, the planes at their scene positions (their motion is how a scene
@@ -55,11 +59,13 @@ def warn_overlaps(
     size (``solver.gap_tolerance``) gives one log line for its pair, naming the deepest
     node and its depth.
     """
-    ball = bodies[0]
     at_rest = [Plane(p.point, p.normal, name=p.name) for p in planes]
-    pairs = [ContactPair(ball, pl) for pl in at_rest]
-    for other in bodies[1:]:
-        pairs += [ContactPair(ball, other), ContactPair(other, ball)]
+    objects = [b for b in bodies if b.name != "hand"]
+    pairs = [ContactPair(o, pl) for o in objects for pl in at_rest]
+    hand = [b for b in bodies if b.name == "hand"]
+    for i, o in enumerate(objects):
+        for other in objects[i + 1 :] + hand:
+            pairs += [ContactPair(o, other), ContactPair(other, o)]
     u = {b.name: np.zeros((b.mesh.n_points, 3)) for b in bodies}
     for pair in pairs:
         p, _ = measure(pair, u, 0.0)

@@ -195,7 +195,7 @@ def test_the_moment_is_about_the_placed_centre(
     tf = np.eye(4)
     tf[:3, :3] = [[c, -s, 0], [s, c, 0], [0, 0, 1]]
     tf[:3, 3] = [0.05, -0.02, 0.1]
-    monkeypatch.setattr(run, "ball_transform", lambda t: tf)
+    monkeypatch.setattr(run, "placement", lambda obj, t: tf)
     ball = run.ball_body(1.0)
     f = ball.loads.reshape(-1, 3)
     total = f1 + np.array([0.0, 0.0, -weight(ball)])
@@ -207,7 +207,7 @@ def test_the_moment_is_about_the_placed_centre(
 def test_no_load_leaves_the_ball_as_it_was(tmp_path: Path) -> None:
     run = GraspRun(load_scene(pads(tmp_path, "[]")))
     ball = run.ball_body(1.0)
-    assert ball is run._ball_body
+    assert ball is run.objects[0]._body
     gravity = fem.gravity_load(ball.mesh, run.ball.material, (0.0, 0.0, -G))
     assert np.array_equal(ball.loads, gravity)
 
@@ -229,8 +229,8 @@ def test_a_changed_load_reuses_the_factorisation_frictionless(tmp_path: Path) ->
         total = fresh.total_contact_force("ball")
         assert np.allclose(result.total_contact_force("ball"), total, rtol=1e-9, atol=1e-12)
         assert total[2] == pytest.approx(weight(bodies[0]) + 0.5 + 1.5 * t)
-    assert bodies[0].solver is run._ball_body.solver
-    assert run._ball_body.solver.n_factorizations == 1
+    assert bodies[0].solver is run.objects[0]._body.solver
+    assert run.objects[0]._body.solver.n_factorizations == 1
 
 
 def test_a_changed_load_reuses_the_factorisation_with_friction(tmp_path: Path) -> None:
@@ -238,7 +238,7 @@ def test_a_changed_load_reuses_the_factorisation_with_friction(tmp_path: Path) -
     scene = load_scene(pads(tmp_path, keys(0.0, 0.0, -0.8, 3e-4, 0.0, 0.0)))
     run = GraspRun(scene)
     run.frame(0.0)
-    solver = run._ball_body.solver
+    solver = run.objects[0]._body.solver
     again, _, _, bodies = run.restart(scene).frame(1.0)
     fresh, _, _, _ = GraspRun(scene).frame(1.0)
     assert bodies[0].solver is solver and solver.n_factorizations == 1
@@ -311,4 +311,4 @@ def test_a_restart_takes_its_scene_s_load(tmp_path: Path) -> None:
     other = replace(scene, ball=replace(scene.ball, load=((0.0, 0.0, 0.0, -0.9, 0, 0, 0),)))
     again = run.restart(other).ball_body(1.0)
     assert again.loads.reshape(-1, 3).sum(axis=0)[2] == pytest.approx(first[2] - 0.4, rel=1e-12)
-    assert again.solver is run._ball_body.solver
+    assert again.solver is run.objects[0]._body.solver

@@ -47,12 +47,13 @@ from .model import (
     PlaneScene,
     SolverScene,
 )
+from .objects import read_objects
 from .read_hand import read_auto_flexion, read_follow, read_hand
 from .spec import Scene
 
 __all__ = ["load_scene"]
 
-_TOP = ("scene", "ball", "hand", "plane", "frames", "solver", "output")
+_TOP = ("scene", "ball", "object", "hand", "plane", "frames", "solver", "output")
 _BALL = (
     "radius", "kind", "thickness", "pressure", "element", "mesh_size", "mesh", "center",
     "material", "follow", "nodal_pressure", "friction", "load",
@@ -76,13 +77,16 @@ def _read_scene(r: SceneReader, data: dict, path: Path) -> tuple[str, str, tuple
 
 def _read_ball(
     r: SceneReader, data: dict, base: Path
-) -> tuple[BallSpec, dict | None, float | None]:
+) -> tuple[BallSpec | None, dict | None, float | None]:
     """The ``[ball]`` table: a :class:`BallSpec` (which checks it), ``ball.follow``.
 
     And ``ball.friction``, None where not given (:class:`Scene` holds its default and check).
+    No ball (None) where the scene has ``[[object]]`` tables instead.
     """
     if "ball" not in data:
-        raise r.fail("ball", MISSING, "missing: a scene needs a [ball] table")
+        if "object" in data:
+            return None, None, None
+        raise r.fail("ball", MISSING, "missing: a scene needs a [ball] table or [[object]] tables")
     b = r.table(data["ball"], "ball", required=("radius",), optional=_BALL)
     kw: dict[str, Any] = {}
     for key in ("radius", "thickness"):
@@ -121,7 +125,7 @@ def _read_ball(
 
 def _check_size(
     r: SceneReader,
-    ball: BallSpec,
+    ball: BallSpec | None,
     hand: HandScene | None,
     frames: int,
     frames_key: str,
@@ -138,6 +142,8 @@ def _check_size(
         if too_many or frames_bytes > 0.5 * size.memory:
             why += f" (at most {sizing.MAX_FRAMES} frames)"
             raise r.fail(frames_key, frames_value, why)
+        if ball is None:
+            raise r.fail(frames_key, frames_value, why)
         if ball.mesh is not None:
             raise r.fail("ball.mesh", str(ball.mesh), why)
         raise r.fail("ball.mesh_size", ball.mesh_size, f"{why}: give a larger mesh_size")
@@ -150,7 +156,7 @@ def _check_size(
 
 
 def _read_frames(
-    r: SceneReader, data: dict, hand: HandScene | None, ball: BallSpec
+    r: SceneReader, data: dict, hand: HandScene | None, ball: BallSpec | None
 ) -> tuple[float, ...]:
     """``[frames]``: the times, after the scene's size is checked against the machine."""
     if "frames" not in data:
@@ -413,7 +419,9 @@ def load_scene(path: str | os.PathLike) -> Scene:
         auto = read_auto_flexion(r, data["hand"]["auto_flexion"], skeleton, frames)
         hand = replace(hand, auto_flexion=auto)
     planes = _read_planes(r, data)
-    _check_planes(r, planes, ball, frames, follow)
+    if ball is not None:
+        _check_planes(r, planes, ball, frames, follow)
+    objects = read_objects(r, data, base, skeleton, tuple(p.name for p in planes))
     solver = _read_solver(r, data)
     output = _read_output(r, data)
     more = {} if ball_friction is None else {"ball_friction": ball_friction}
@@ -431,5 +439,6 @@ def load_scene(path: str | os.PathLike) -> Scene:
         solver=solver,
         output=output,
         description=description,
+        objects=objects,
         **more,
     )

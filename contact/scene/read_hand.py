@@ -235,17 +235,19 @@ def read_auto_flexion(
     return tuple(out)
 
 
-def read_follow(r: SceneReader, value: Any, skeleton: Skeleton | None) -> Follow | None:
-    """``[ball.follow]``: a joint of the rig, so only with a ``[hand]``."""
+def read_follow(
+    r: SceneReader, value: Any, skeleton: Skeleton | None, where: str = "ball.follow"
+) -> Follow | None:
+    """``[ball.follow]`` (or an object's ``follow``): a joint of the rig, so only with a hand."""
     if value is None:
         return None
-    f = r.table(value, "ball.follow", required=("joint", "start", "stop"))
-    joint = r.string(f["joint"], "ball.follow.joint")
+    f = r.table(value, where, required=("joint", "start", "stop"))
+    joint = r.string(f["joint"], f"{where}.joint")
     if skeleton is None:
-        raise r.fail("ball.follow.joint", joint, "the ball can follow a joint only with a [hand]")
+        raise r.fail(f"{where}.joint", joint, "an object can follow a joint only with a [hand]")
     if joint not in skeleton.joint_names:
         close = hint(joint, skeleton.joint_names)
-        raise r.fail("ball.follow.joint", joint, f"unknown joint{close}")
-    start = r.bounded(f["start"], "ball.follow.start", "time")
-    stop = r.bounded(f["stop"], "ball.follow.stop", "time")
-    return r.build("ball.follow", Follow, joint, start, stop)
+        raise r.fail(f"{where}.joint", joint, f"unknown joint{close}")
+    start = r.bounded(f["start"], f"{where}.start", "time")
+    stop = r.bounded(f["stop"], f"{where}.stop", "time")
+    return r.build(where, Follow, joint, start, stop)

@@ -157,12 +157,13 @@ def _memory(dofs: float) -> float:
     return BYTES_PER_DOF * dofs * max(1.0, dofs / REFERENCE_DOFS) ** (1.0 / 3.0)
 
 
-def estimate(ball: BallSpec, hand_resolution: str | None, frames: int) -> SceneSize:
+def estimate(ball: BallSpec | None, hand_resolution: str | None, frames: int) -> SceneSize:
     """The scene's size and peak memory.
 
     Parameters
     ----------
-    ball : BallSpec
+    ball : BallSpec or None
+        None: no ball (the ``[[object]]`` meshes are checked as they are read).
     hand_resolution : str or None
         ``hand.resolution``; None without a hand.
     frames : int
@@ -171,9 +172,11 @@ def estimate(ball: BallSpec, hand_resolution: str | None, frames: int) -> SceneS
     -------
     SceneSize
     """
-    nodes, elements = ball_size(ball)
+    nodes, elements = ball_size(ball) if ball is not None else (0, 0)
     hn, he = HAND_SIZE.get(hand_resolution, (0, 0)) if hand_resolution else (0, 0)
-    if ball.mesh is not None:  # a mesh file: some hundred bytes a node on disk
+    if ball is None:
+        memory_ball = 0.0
+    elif ball.mesh is not None:  # a mesh file: some hundred bytes a node on disk
         memory_ball = _memory(3.0 * Path(ball.mesh).stat().st_size / 100.0)
     else:
         memory_ball = _memory(3.0 * nodes)

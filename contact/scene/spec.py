@@ -14,6 +14,7 @@ from ..ball import BallSpec
 from ..errors import SceneError
 from ._checks import as_dict, check_friction, invalid
 from .model import Follow, HandScene, OutputScene, PlaneScene, SolverScene
+from .objects import ObjectScene
 
 __all__ = ["Scene"]
 
@@ -28,7 +29,8 @@ class Scene:
         The scene file (absolute).
     name : str
         ``scene.name``, default the file's stem.
-    ball : BallSpec
+    ball : BallSpec or None
+        The ``[ball]`` table; None when the scene has only ``[[object]]`` tables.
     hand : HandScene or None
     planes : tuple of PlaneScene
     follow : Follow or None
@@ -43,6 +45,8 @@ class Scene:
     ball_friction : float
         ``ball.friction``: Coulomb's coefficient of the ball against a plane or the hand
         that gives none, >= 0.
+    objects : tuple of ObjectScene
+        The ``[[object]]`` tables, in file order.
 
     Raises
     ------
@@ -53,7 +57,7 @@ class Scene:
 
     path: Path
     name: str
-    ball: BallSpec
+    ball: BallSpec | None
     hand: HandScene | None
     planes: tuple[PlaneScene, ...]
     follow: Follow | None
@@ -63,10 +67,15 @@ class Scene:
     output: OutputScene
     description: str = ""
     ball_friction: float = 0.0
+    objects: tuple[ObjectScene, ...] = ()
 
     def __post_init__(self) -> None:
         check_friction("ball.friction", self.ball_friction)
-        frictional = [(key, mu) for _, key, mu in self.interfaces() if mu > 0]
+        if not self.object_names:
+            raise SceneError("missing: a scene needs a [ball] table or [[object]] tables")
+        frictional = [
+            (key, mu) for o in self.object_names for _, key, mu in self.interfaces(o) if mu > 0
+        ]
         if frictional and self.solver.contact.algorithm == "seed":
             key, mu = frictional[0]
             raise invalid(
@@ -84,52 +93,94 @@ class Scene:
                 'use "contact-space"',
             )
 
-    def interfaces(self) -> list[tuple[str, str, float]]:
-        """Each body the ball can touch, with the key path that gives its coefficient.
+    @property
+    def object_names(self) -> list[str]:
+        """The free or held objects' body names: ``"ball"`` (when the scene has one) first."""
+        return (["ball"] if self.ball is not None else []) + [o.name for o in self.objects]
+
+    @property
+    def free_objects(self) -> list[str]:
+        """The objects held by their contacts alone: neither fixed nor following a joint."""
+        out = ["ball"] if self.ball is not None and self.follow is None else []
+        return out + [o.name for o in self.objects if not o.fixed and o.follow is None]
+
+    def _own(self, obj: str) -> tuple[str, float | None]:
+        """An object's own ``friction`` key path and value (None: not given)."""
+        if obj == "ball" and self.ball is not None:
+            return "ball.friction", self.ball_friction
+        for i, o in enumerate(self.objects):
+            if o.name == obj:
+                return f"object[{i}].friction", o.friction
+        raise KeyError(f"the scene has no object {obj!r}")
+
+    def interfaces(self, obj: str | None = None) -> list[tuple[str, str, float]]:
+        """Each body the object ``obj`` can touch, with the key path that gives its coefficient.
+
+        Parameters
+        ----------
+        obj : str, optional
+            An object's name (:attr:`object_names`); default the first (the ball).
 
         Returns
         -------
         list of (str, str, float)
-            ``(body, key path, mu)`` for the planes in file order, then the hand: the body's
-            own ``friction`` where its table gives one (``plane[0].friction``), else the
-            ball's (``ball.friction``).
+            ``(body, key path, mu)`` for the planes in file order, then the hand, then the
+            other objects. Against a plane or the hand: the body's own ``friction`` where its
+            table gives one (``plane[0].friction``), else the object's (``ball.friction``).
+            Between two objects: the one first in :attr:`object_names`'s where it gives one
+            (> 0 for the ball, whose default is 0), else the other's, else 0.
         """
+        obj = self.object_names[0] if obj is None else obj
+        key, mine = self._own(obj)
+        mine_or_0 = 0.0 if mine is None else mine
         own = [(p.name, f"plane[{i}].friction", p.friction) for i, p in enumerate(self.planes)]
         if self.hand is not None:
             own.append(("hand", "hand.friction", self.hand.friction))
-        return [
-            (body, "ball.friction", self.ball_friction) if mu is None else (body, key, mu)
-            for body, key, mu in own
-        ]
+        out = [(body, key, mine_or_0) if mu is None else (body, k, mu) for body, k, mu in own]
+        names = self.object_names
+        for other in names:
+            if other == obj:
+                continue
+            k2, theirs = self._own(other)
+            first = (key, mine) if names.index(obj) < names.index(other) else (k2, theirs)
+            second = (k2, theirs) if first[0] == key else (key, mine)
+            if first[1] is not None and (first[1] > 0 or first[0] != "ball.friction"):
+                out.append((other, first[0], float(first[1])))
+            elif second[1] is not None:
+                out.append((other, second[0], float(second[1])))
+            else:
+                out.append((other, first[0], 0.0))
+        return out
 
     @property
     def frictional(self) -> bool:
         """True when some interface has friction: every frame then depends on those before."""
-        return any(mu > 0 for _, _, mu in self.interfaces())
+        return any(mu > 0 for obj in self.object_names for _, _, mu in self.interfaces(obj))
 
-    def friction(self, body: str) -> float:
-        """Coulomb's coefficient between the ball and ``body``, the same both ways.
+    def friction(self, body: str, obj: str | None = None) -> float:
+        """Coulomb's coefficient between the object ``obj`` and ``body``, the same both ways.
 
         Parameters
         ----------
         body : str
-            ``"hand"`` or a plane's name: the master of the ball's pair, and the slave of
-            the hand's pair against the ball.
+            ``"hand"``, a plane's or another object's name.
+        obj : str, optional
+            An object's name; default the first (the ball).
 
         Returns
         -------
         float
-            ``body``'s ``friction`` where its table gives one, else ``ball.friction``.
+            As :meth:`interfaces` gives it.
 
         Raises
         ------
         KeyError
             When the scene has no such body.
         """
-        for name, _, mu in self.interfaces():
+        for name, _, mu in self.interfaces(obj):
             if name == body:
                 return float(mu)
-        raise KeyError(f"the scene has no hand or plane {body!r}")
+        raise KeyError(f"the scene has no hand, plane or object {body!r}")
 
     @property
     def grip(self) -> dict[str, float]:
@@ -150,9 +201,10 @@ class Scene:
                 "--least-grip: the scene has nothing force-driven to scale (give a "
                 "[[plane]] force = [[t, N], ...] or a [[hand.auto_flexion]] force = N)"
             )
-        if (self.gravity is None or not any(self.gravity)) and not self.ball.load:
+        loaded = self.ball is not None and self.ball.load
+        if (self.gravity is None or not any(self.gravity)) and not loaded:
             raise SceneError(
-                "--least-grip: nothing to hold: the free ball has no load (set scene.gravity "
+                "--least-grip: nothing to hold: no free object has a load (set scene.gravity "
                 "or ball.load)"
             )
         if not self.frictional:
@@ -201,7 +253,7 @@ class Scene:
         Paths are strings; ``None`` stands for an absent optional value.
         """
         b = self.ball
-        ball = {
+        ball = None if b is None else {
             "radius": b.radius,
             "kind": b.kind,
             "thickness": b.thickness,
@@ -242,6 +294,17 @@ class Scene:
                 "gravity": None if self.gravity is None else list(self.gravity),
             },
             "ball": ball,
+            "object": [
+                {
+                    **as_dict(o),
+                    "mesh": str(o.mesh),
+                    "center": list(o.center),
+                    "rotation": list(o.rotation),
+                    "material": as_dict(o.material),
+                    "follow": None if o.follow is None else as_dict(o.follow),
+                }
+                for o in self.objects
+            ],
             "hand": hand,
             "plane": [
                 {

@@ -62,7 +62,7 @@ def test_a_coarse_ball_is_pressed_as_deep_as_asked(coarse_press):
     flex = run.auto_flexed["index_mcp"]
     assert flex["converged"]
     x = run.hand_body(angles).mesh.points[[flex["node"]]]
-    mesh = float(mesh_distance(run._ball_surface(0.5))(x)[0])
+    mesh = float(mesh_distance(run.object_surfaces(0.5))(x)[0])
     sphere = float(sphere_distance(run.scene.ball.center, run.scene.ball.radius)(x)[0])
     # the press into the meshed facets the contact search meets; deeper into the sphere
     assert mesh == pytest.approx(-PRESS, abs=2e-5)
