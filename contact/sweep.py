@@ -4,12 +4,20 @@ The sweep file (:mod:`contact.sweepspec`, ``docs/sweep.md``) names a base scene 
 to vary; each combination is written as ``runs/NNNN/scene.toml`` in the sweep's folder and
 loaded before anything runs. Each run is one :func:`contact.grasp.run` into
 ``runs/NNNN/results`` on a Dask worker: an embedded ``distributed.LocalCluster`` (processes,
-one thread each, one per core by default) or, with ``--scheduler``, an existing cluster
-(whose workers must see the sweep's folder). Each worker process runs with its share of
-the cores as its BLAS / OpenMP / numba thread count, so that the workers together do not
-oversubscribe them. A run that raises or exits 2 or more is a failed row and the sweep
-goes on; a run whose results folder is complete for the same scene text is not redone.
-The table is ``sweep.csv`` (:mod:`contact.sweeptable`) with a plot, ``sweep.png``.
+one task slot each, one per core by default) or, with ``--scheduler``, an existing cluster
+(whose workers must see the sweep's folder).
+
+Threads: each run holds its BLAS / OpenMP pools (``threadpoolctl``), PARDISO and numba to
+``--threads N``. The default is the core share for the embedded cluster (cores // workers,
+also set as the worker processes' ``OMP_NUM_THREADS`` etc.), so that the workers together do
+not oversubscribe the cores, and 1 on an existing cluster (a worker runs ``nthreads`` tasks
+at once: together they take its ``nthreads`` threads).
+
+Faults: a run that raises or exits 2 or more is a failed row and the sweep goes on; a run
+whose worker process dies is resubmitted by the scheduler (up to :data:`ALLOWED_FAILURES`
+deaths, then a ``KilledWorker`` failed row). A run whose results folder is complete for the
+same scene text is not redone. The table is ``sweep.csv`` (:mod:`contact.sweeptable`) with
+a plot, ``sweep.png``.
 
 Exit status: 0 every run done, 1 a run failed, 2 a bad sweep file, a bad generated scene
 or a scheduler that does not answer (one line, nothing run).
@@ -22,6 +30,7 @@ import contextlib
 import io
 import logging
 import os
+import signal
 import sys
 import time
 from collections.abc import Sequence
@@ -34,13 +43,27 @@ from .scene.read import load_scene
 from .sweepspec import Sweep, SweepError, SweepRun, expand, load_sweep
 from .sweeptable import columns, figures, plot, read_summary, write_table
 
-__all__ = ["SCHEDULER_TIMEOUT", "THREAD_VARIABLES", "main", "run_one", "sweep"]
+__all__ = [
+    "ALLOWED_FAILURES", "RETRIES", "SCHEDULER_TIMEOUT", "TEST_KILL_ONCE", "THREAD_VARIABLES",
+    "main", "run_one", "sweep",
+]  # fmt: skip
 
 #: Seconds to wait for a ``--scheduler`` to answer before giving up (exit 2).
 SCHEDULER_TIMEOUT = 10.0
 #: The thread-count variables a worker process gets, read by the BLAS, PARDISO and numba.
 THREAD_VARIABLES = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS",
                     "NUMBA_NUM_THREADS")  # fmt: skip
+#: Worker deaths a run survives on the embedded cluster (``distributed.scheduler.
+#: allowed-failures``); one more and the run is a ``KilledWorker`` failed row. An existing
+#: cluster's scheduler uses its own setting (Dask's default is also 3).
+ALLOWED_FAILURES = 3
+#: Dask ``retries`` of a task that raises (``run_one`` itself catches a run's exceptions, so
+#: this covers the rest, e.g. a result that does not travel back); deaths are counted above.
+RETRIES = 1
+#: Test-only hook: with this environment variable naming a file that does not exist, the
+#: first run to create it (its pid inside) kills its own worker process (SIGKILL) once its
+#: results are written and before it reports back; later runs and attempts go on.
+TEST_KILL_ONCE = "CONTACT_SWEEP_TEST_KILL_ONCE"
 
 
 def _limit_threads(threads: int) -> contextlib.AbstractContextManager:
@@ -56,7 +79,24 @@ def _limit_threads(threads: int) -> contextlib.AbstractContextManager:
     return threadpool_limits(limits=threads)
 
 
-def run_one(scene: str, results: str, pictures: bool, least: bool, threads: int) -> dict:
+def _kill_once() -> None:
+    """The :data:`TEST_KILL_ONCE` hook: the first run to create the marker kills its process."""
+    marker = os.environ.get(TEST_KILL_ONCE)
+    if not marker:
+        return
+    try:
+        fd = os.open(marker, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+    except FileExistsError:
+        return
+    os.write(fd, str(os.getpid()).encode())
+    os.close(fd)
+    os.kill(os.getpid(), getattr(signal, "SIGKILL", signal.SIGTERM))
+    os._exit(70)  # where the signal is not immediate
+
+
+def run_one(
+    scene: str, results: str, pictures: bool, least: bool, threads: int | None = None
+) -> dict:
     """One run, in a worker: :func:`contact.grasp.run`, its figures or its error's one line.
 
     Parameters
@@ -65,8 +105,8 @@ def run_one(scene: str, results: str, pictures: bool, least: bool, threads: int)
         The generated scene file and its results folder.
     pictures, least : bool
         Render pictures; search the least grip.
-    threads : int
-        This run's share of threads (BLAS, OpenMP, numba).
+    threads : int, optional
+        This run's threads (BLAS, OpenMP, PARDISO, numba); default 1 (a worker's task slot).
 
     Returns
     -------
@@ -75,11 +115,13 @@ def run_one(scene: str, results: str, pictures: bool, least: bool, threads: int)
         done, the figures of :func:`contact.sweeptable.figures`.
     """
     t0 = time.perf_counter()
+    threads = threads or 1  # a worker runs nthreads tasks at once: one thread each
     err = io.StringIO()
     try:
         with _limit_threads(threads), contextlib.redirect_stderr(err), \
                 contextlib.redirect_stdout(io.StringIO()):  # fmt: skip
             code = grasp_run(scene, out=results, pictures=pictures, quiet=True, least=least)
+        _kill_once()
     except Exception as exc:  # the sweep goes on: the row says what raised
         line = (str(exc).splitlines() or [""])[0][:300]
         return {"status": f"failed: {type(exc).__name__}: {line}", "exit_status": 3,
@@ -122,19 +164,25 @@ def _prepare(sw: Sweep, out: Path) -> list[tuple[SweepRun, Path, dict | None]]:
     return prepared
 
 
-def _client(scheduler: str | None, workers: int | None, threads: int):
+def _client(scheduler: str | None, workers: int, threads: int):
     """A Dask client and the cluster it owns (None with ``--scheduler``)."""
+    import dask
     from distributed import Client, LocalCluster
 
     logging.getLogger("distributed").setLevel(logging.ERROR)
     if scheduler:
         return Client(scheduler, timeout=SCHEDULER_TIMEOUT), None
     env = {v: str(threads) for v in THREAD_VARIABLES}
-    cluster = LocalCluster(
-        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
-        silence_logs=logging.CRITICAL, env=env,
-    )  # fmt: skip
-    return Client(cluster), cluster
+    with dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES}):
+        cluster = LocalCluster(
+            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+            silence_logs=logging.CRITICAL, env=env,
+        )  # fmt: skip
+    try:
+        return Client(cluster), cluster
+    except BaseException:
+        cluster.close()
+        raise
 
 
 def sweep(
@@ -143,6 +191,7 @@ def sweep(
     out: str | Path | None = None,
     scheduler: str | None = None,
     workers: int | None = None,
+    threads: int | None = None,
     quiet: bool = False,
 ) -> int:
     """Run a sweep file; write ``runs/``, ``sweep.csv`` and ``sweep.png`` into ``out``.
@@ -157,6 +206,9 @@ def sweep(
         A Dask scheduler's address; default an embedded local cluster.
     workers : int, optional
         Local worker processes; default one per core.
+    threads : int, optional
+        Threads per run (BLAS, OpenMP, PARDISO, numba); default the core share on the
+        embedded cluster (cores // workers), 1 with ``scheduler`` (one per task slot).
     quiet : bool
         No progress bar and no closing line.
 
@@ -165,6 +217,10 @@ def sweep(
     int
         0 every run done, 1 a run failed, 2 bad input (one line on stderr, nothing run).
     """
+    for name, n in (("workers", workers), ("threads", threads)):
+        if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
+            print(f"error: {name} must be a positive integer, got {n!r}", file=sys.stderr)
+            return 2
     try:
         sw = load_sweep(path)
         folder = Path(out or sw.directory or Path("results") / Path(path).stem).resolve()
@@ -175,7 +231,8 @@ def sweep(
         return 2
     cores = os.cpu_count() or 1
     n = workers or cores
-    threads = max(1, cores // n) if not scheduler else 1
+    if threads is None and not scheduler:
+        threads = max(1, cores // n)
     rows: dict[int, dict[str, Any]] = {}
     todo = []
     for r, run_folder, row in prepared:
@@ -185,16 +242,18 @@ def sweep(
             todo.append((r, run_folder))
     if todo:
         try:
-            client, cluster = _client(scheduler, n, threads)
+            client, cluster = _client(scheduler, n, threads or 1)
         except (OSError, TimeoutError) as exc:
             print(f"error: scheduler {scheduler}: does not answer ({exc})", file=sys.stderr)
             return 2
         try:
             _submit(client, todo, sw, threads, rows, quiet)
         finally:
-            client.close()
-            if cluster is not None:
-                cluster.close()
+            try:
+                client.close()
+            finally:
+                if cluster is not None:
+                    cluster.close()
     ordered = [rows[i] for i in sorted(rows)]
     write_table(ordered, columns(sw.keys, sw.least_grip), folder)
     plot(ordered, sw.keys, sw.plot_y, folder / "sweep.png")
@@ -205,7 +264,7 @@ def sweep(
     return 1 if failed else 0
 
 
-def _submit(client, todo, sw: Sweep, threads: int, rows: dict, quiet: bool) -> None:
+def _submit(client, todo, sw: Sweep, threads: int | None, rows: dict, quiet: bool) -> None:
     """Submit the runs, gather them as they complete, one bar with done / failed counts."""
     from distributed import as_completed
     from tqdm import tqdm
@@ -215,7 +274,7 @@ def _submit(client, todo, sw: Sweep, threads: int, rows: dict, quiet: bool) -> N
         fut = client.submit(
             run_one, str(run_folder / "scene.toml"), str(run_folder / "results"),
             sw.pictures, sw.least_grip, threads, key=f"grasp-run-{r.name}-{os.getpid()}",
-            retries=1, pure=False,
+            retries=RETRIES, pure=False,
         )  # fmt: skip
         futures[fut] = r
     done = failed = 0
@@ -224,7 +283,7 @@ def _submit(client, todo, sw: Sweep, threads: int, rows: dict, quiet: bool) -> N
             r = futures[fut]
             try:
                 res = fut.result()
-            except Exception as exc:  # a worker that died past its retries
+            except Exception as exc:  # KilledWorker: its workers died past ALLOWED_FAILURES
                 line = (str(exc).splitlines() or [""])[0][:300]
                 res = {"status": f"failed: {type(exc).__name__}: {line}", "exit_status": 3}
             rows[r.index] = {"run": r.name, **r.values, **res}
@@ -248,19 +307,29 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("sweep", help="the sweep file (TOML; see docs/sweep.md)")
     ap.add_argument("--scheduler", metavar="ADDRESS",
                     help="a Dask scheduler (tcp://host:8786); default an embedded local cluster")
-    ap.add_argument("--workers", metavar="N", type=int,
+    ap.add_argument("--workers", metavar="N",
                     help="local worker processes (default one per core)")
+    ap.add_argument("--threads", metavar="N",
+                    help="threads per run: BLAS, PARDISO, numba (default the core share on the "
+                    "embedded cluster, 1 with --scheduler: one per task slot)")
     ap.add_argument("--out", metavar="DIR",
                     help="the sweep's folder (default sweep.directory, else results/<stem>)")
     ap.add_argument("--quiet", action="store_true", help="no progress bar, no closing line")
     args = ap.parse_args(argv)
-    if args.workers is not None and args.workers < 1:
-        print("error: --workers must be at least 1", file=sys.stderr)
-        return 2
+    counts = {}
+    for flag in ("workers", "threads"):
+        text = getattr(args, flag)
+        try:
+            counts[flag] = None if text is None else int(text)
+        except ValueError:
+            counts[flag] = 0
+        if text is not None and counts[flag] < 1:
+            print(f"error: --{flag} must be a positive integer, got {text!r}", file=sys.stderr)
+            return 2
     logging.basicConfig(level=logging.ERROR if args.quiet else logging.WARNING,
                         format="%(levelname)s: %(message)s")  # fmt: skip
-    return sweep(args.sweep, out=args.out, scheduler=args.scheduler, workers=args.workers,
-                 quiet=args.quiet)  # fmt: skip
+    return sweep(args.sweep, out=args.out, scheduler=args.scheduler, workers=counts["workers"],
+                 threads=counts["threads"], quiet=args.quiet)  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -212,6 +212,9 @@ def _absolute(doc: dict, folder: Path) -> None:
         t = doc.get(table)
         if isinstance(t, dict) and isinstance(t.get(key), str):
             t[key] = str((folder / Path(t[key]).expanduser()).resolve())
+    for t in doc.get("object", []) if isinstance(doc.get("object"), list) else []:
+        if isinstance(t, dict) and isinstance(t.get("mesh"), str):  # [[object]] mesh files
+            t["mesh"] = str((folder / Path(t["mesh"]).expanduser()).resolve())
 
 
 def expand(sweep: Sweep, results: Path | None = None) -> list[SweepRun]:

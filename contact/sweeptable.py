@@ -100,15 +100,27 @@ def write_table(rows: Sequence[Mapping[str, Any]], header: Sequence[str], out: P
         w.writerow(header)
         for row in rows:
             w.writerow([_cell(row.get(c)) for c in header])
-    written = [path]
     try:
         import pyarrow as pa
         import pyarrow.parquet as pq
     except ImportError:
-        return written
-    table = pa.table({c: [_cell(r.get(c)) for r in rows] for c in header})
+        return [path]
+    table = pa.table({c: _column(pa, [r.get(c) for r in rows]) for c in header})
     pq.write_table(table, out / "sweep.parquet")
-    return [*written, out / "sweep.parquet"]
+    return [path, out / "sweep.parquet"]
+
+
+def _column(pa: Any, values: list[Any]) -> Any:
+    """One Parquet column: typed, with nulls where the CSV is empty (a failed run's figures).
+
+    Lists and tables are JSON text, as in the CSV; a column of mixed types (a varied key
+    given a number and a string) is written as the CSV's text.
+    """
+    cells = [None if v is None else _cell(v) for v in values]
+    try:
+        return pa.array(cells)
+    except (pa.ArrowInvalid, pa.ArrowTypeError, TypeError):
+        return pa.array([None if v is None else str(_cell(v)) for v in values], pa.string())
 
 
 def _number(v: Any) -> float | None:

@@ -1,4 +1,5 @@
-"""Sweeps on an embedded Dask cluster: table rows equal single runs, failures, resume, refusals."""
+"""Sweeps on an embedded Dask cluster: rows equal single runs, failures, killed workers, resume,
+refusals, Parquet, thread counts."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import pytest
 pytest.importorskip("distributed")
 
 from contact.grasp import run as grasp_run
-from contact.sweep import _limit_threads, sweep
+from contact.sweep import TEST_KILL_ONCE, _limit_threads, main, sweep
 from contact.sweepspec import dump_toml, load_sweep, tomllib
 
 PADS = Path(__file__).resolve().parents[1] / "examples" / "pads.toml"
@@ -59,6 +60,39 @@ def _same(a, b):
         assert a == b
 
 
+def _equal_to_single_runs(out: Path, rows: list[dict], tmp: Path) -> None:
+    """Each row's results folder equals a plain run of its scene (timings aside)."""
+    for r in rows:
+        folder = out / "runs" / r["run"]
+        with _limit_threads(1):  # the worker's share of threads: the same sums
+            status = grasp_run(folder / "scene.toml", out=tmp / "single", pictures=False,
+                               quiet=True)  # fmt: skip
+        assert status == int(r["exit_status"]) == 0
+        mine = json.loads((folder / "results" / "summary.json").read_text())
+        single = json.loads((tmp / "single" / "summary.json").read_text())
+        _same(_strip(mine), _strip(single))  # to roundoff
+        assert float(r["grip_force"]) == pytest.approx(single["frames"][-1]["grip_force"])
+
+
+def _parquet_equals_csv(out: Path, pq):
+    """``sweep.parquet`` holds the CSV's columns and values (nulls where a cell is empty)."""
+    table = pq.read_table(out / "sweep.parquet")
+    with open(out / "sweep.csv") as fh:
+        header = next(csv.reader(fh))
+    rows = _rows(out)
+    assert table.column_names == header and table.num_rows == len(rows)
+    for got, want in zip(table.to_pylist(), rows):
+        for c in header:
+            v = got[c]
+            if v is None:
+                assert want[c] == "", c
+            elif isinstance(v, float):
+                assert float(want[c]) == v, c
+            else:
+                assert str(v) == want[c], c
+    return table
+
+
 def test_dump_toml_reads_back():
     doc = tomllib.loads(PADS.read_text())
     doc["hand"] = {"auto_flexion": [{"force": 2.0, "fingers": ["index"]}], "x y": "a\"b"}
@@ -75,18 +109,16 @@ def test_four_runs_equal_single_runs_then_resume(tmp_path, capsys):
     assert [r["run"] for r in rows] == ["0000", "0001", "0002", "0003"]
     assert all(r["status"] == "done" for r in rows)
     assert (out / "sweep.png").is_file()
+    try:
+        import pyarrow.parquet as pq
+    except ImportError:
+        assert not (out / "sweep.parquet").exists()
+    else:
+        _parquet_equals_csv(out, pq)
     for r in rows:
-        folder = out / "runs" / r["run"]
-        scene = tomllib.loads((folder / "scene.toml").read_text())
+        scene = tomllib.loads((out / "runs" / r["run"] / "scene.toml").read_text())
         assert scene["plane"][0]["friction"] == float(r["plane[0].friction"])
-        with _limit_threads(1):  # the worker's share of threads: the same sums
-            status = grasp_run(folder / "scene.toml", out=tmp_path / "single", pictures=False,
-                               quiet=True)  # fmt: skip
-        assert status == int(r["exit_status"]) == 0
-        mine = json.loads((folder / "results" / "summary.json").read_text())
-        single = json.loads((tmp_path / "single" / "summary.json").read_text())
-        _same(_strip(mine), _strip(single))  # to roundoff
-        assert float(r["grip_force"]) == pytest.approx(single["frames"][-1]["grip_force"])
+    _equal_to_single_runs(out, rows, tmp_path)
     stamps = {p: p.stat().st_mtime_ns for p in out.glob("runs/*/results/summary.json")}
     assert len(stamps) == 4
     assert sweep(sw, out=out, workers=2, quiet=True) == 0  # resumed: nothing redone
@@ -113,6 +145,8 @@ def test_a_failing_run_is_a_failed_row_and_the_others_finish(tmp_path):
     rows = _rows(out)
     assert rows[0]["status"] == "done"
     assert rows[1]["status"].startswith("failed: ") and "\n" not in rows[1]["status"]
+    if (out / "sweep.parquet").exists():  # a failed row's empty figures are nulls there
+        _parquet_equals_csv(out, pytest.importorskip("pyarrow.parquet"))
 
 
 @pytest.mark.parametrize(
@@ -164,44 +198,89 @@ def test_a_scheduler_that_does_not_answer_exits_2(tmp_path, capsys, monkeypatch)
     assert "tcp://127.0.0.1:1" in err and "\n" not in err
 
 
-@pytest.mark.slow  # it kills a worker mid-run: timing-dependent, run on demand
-def test_a_worker_killed_during_a_run_is_resubmitted(tmp_path):
-    import threading
-    import time
-
+def test_a_worker_killed_during_a_run_is_resubmitted(tmp_path, monkeypatch):
     psutil = pytest.importorskip("psutil")
+    me = psutil.Process()
+    before = {k.pid for k in me.children(recursive=True)}
     _scene(tmp_path)
-    sw = _sweep(tmp_path, '"plane[0].friction" = [0.5, 0.6]\n"plane[1].friction" = [0.5, 0.6]')
+    sw = _sweep(tmp_path, '"plane[0].friction" = [0.5, 0.6]')
     out = tmp_path / "out"
-    killed = []
-
-    start = time.time() - 1.0
-
-    def worker(k) -> bool:  # a process this sweep's cluster spawned, busy running
-        try:
-            spawned = k.create_time() >= start and "spawn_main" in " ".join(k.cmdline())
-            return spawned and k.cpu_percent(interval=0.2) > 50
-        except psutil.Error:
-            return False
-
-    def kill() -> None:  # a busy worker process, once a run is under way
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline and not killed:
-            time.sleep(0.5)
-            if not any((out / "runs").glob("*/scene.toml")):
-                continue
-            busy = [k for k in psutil.Process().children(recursive=True) if worker(k)]
-            if busy:
-                busy[0].kill()
-                killed.append(busy[0].pid)
-
-    t = threading.Thread(target=kill, daemon=True)
-    t.start()
+    marker = tmp_path / "killed"  # the first run to create it kills its worker (SIGKILL)
+    monkeypatch.setenv(TEST_KILL_ONCE, str(marker))
     assert sweep(sw, out=out, workers=2, quiet=True) == 0
-    t.join(5)
-    assert killed
+    pid = int(marker.read_text())
+    assert pid not in before and pid != me.pid and not psutil.pid_exists(pid)
     rows = _rows(out)
-    assert len(rows) == 4 and all(r["status"] == "done" for r in rows)
+    assert len(rows) == 2 and all(r["status"] == "done" for r in rows)
+    _equal_to_single_runs(out, rows, tmp_path)
+    # nothing left running: the cluster's processes are gone (the multiprocessing resource
+    # tracker, started once per interpreter, is not the sweep's)
+    left = [k for k in me.children(recursive=True) if k.pid not in before]
+    _, alive = psutil.wait_procs(left, timeout=10)
+    alive = [k for k in alive if "resource_tracker" not in " ".join(k.cmdline())]
+    assert not alive, [k.cmdline() for k in alive]
+
+
+def test_a_run_whose_worker_dies_past_the_allowed_failures_is_a_failed_row(tmp_path, monkeypatch):
+    import contact.sweep
+
+    monkeypatch.setattr(contact.sweep, "ALLOWED_FAILURES", 0)  # the first death is too many
+    monkeypatch.setenv(TEST_KILL_ONCE, str(tmp_path / "killed"))
+    _scene(tmp_path)
+    sw = _sweep(tmp_path, '"plane[0].friction" = [0.5]')
+    out = tmp_path / "out"
+    assert sweep(sw, out=out, workers=1, quiet=True) == 1
+    (row,) = _rows(out)
+    assert row["status"].startswith("failed: KilledWorker: ") and "\n" not in row["status"]
+
+
+def test_the_parquet_table_reads_back_equal_to_the_csv(tmp_path):
+    pq = pytest.importorskip("pyarrow.parquet")
+    from contact.sweeptable import columns, write_table
+
+    keys = ["ball.material.E", "scene.gravity", "ball.mesh"]
+    done = {"status": "done", "exit_status": 0, "converged": True, "realistic": True,
+            "held": True, "least_grip_scale": 0.75, "max_bone_force": 1.5, "max_bone": "",
+            "grip_force": 2.25, "iterations": 12, "seconds": 0.0}  # fmt: skip
+    rows = [
+        {"run": "0000", "ball.material.E": 1e5, "scene.gravity": [0.0, 0.0, -9.81],
+         "ball.mesh": "a.vtu", **done},
+        {"run": "0001", "ball.material.E": 2e5, "scene.gravity": [0.0, 0.0, -5.0],
+         "ball.mesh": 7, **done, "max_bone": "index_distal", "held": False},
+        {"run": "0002", "ball.material.E": 3e5, "scene.gravity": [0.0, 0.0, -1.0],
+         "ball.mesh": "c.vtu", "status": "failed: ValueError: bad", "exit_status": 3,
+         "seconds": 0.5},  # a failed run: no figures
+    ]  # fmt: skip
+    header = columns(keys, least=True)
+    written = write_table(rows, header, tmp_path)
+    assert written == [tmp_path / "sweep.csv", tmp_path / "sweep.parquet"]
+    table = _parquet_equals_csv(tmp_path, pq)
+    assert table.column_names == header and table.num_rows == 3
+    assert str(table.schema.field("grip_force").type) == "double"
+    assert str(table.schema.field("iterations").type) == "int64"
+    assert str(table.schema.field("held").type) == "bool"
+
+
+@pytest.mark.parametrize("argv", [["--threads", "0"], ["--threads", "two"],
+                                  ["--threads", "-1"], ["--threads", "1.5"],
+                                  ["--workers", "0"]])  # fmt: skip
+def test_bad_thread_and_worker_counts_exit_2_with_one_line(tmp_path, capsys, argv):
+    _scene(tmp_path)
+    sw = _sweep(tmp_path, '"plane[0].friction" = [0.5]')
+    out = tmp_path / "out"
+    assert main([str(sw), "--out", str(out), "--quiet", *argv]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"error: {argv[0]} must be a positive integer") and argv[1] in err
+    assert "\n" not in err and not out.exists()
+
+
+@pytest.mark.parametrize("threads", [0, -2, 1.5, True])
+def test_sweep_refuses_a_bad_thread_count(tmp_path, capsys, threads):
+    _scene(tmp_path)
+    sw = _sweep(tmp_path, '"plane[0].friction" = [0.5]')
+    assert sweep(sw, out=tmp_path / "out", threads=threads, quiet=True) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: threads must be a positive integer") and "\n" not in err
 
 
 def test_a_base_scene_that_does_not_exist_exits_2(tmp_path, capsys):
