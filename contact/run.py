@@ -44,7 +44,7 @@ from .hand.keyframes import Keyframes
 from .hand.posing import HandPoser, Pose
 from .hand.shipped import load_hand
 from .objects.meshing import mesh_object
-from .objects.placed import SceneObject, from_ball, from_scene
+from .objects.placed import SceneObject, from_ball, from_scene, object_pairs
 from .rolling import MAX_ROLLS, ROLL, turned_placement
 from .scene.model import PlaneScene
 from .scene.spec import Scene
@@ -438,10 +438,9 @@ class GraspRun:
         objects = [self.object_body(o, t) for o in self.objects]
         bodies = list(objects)
         pairs: list[ContactPair] = []
-        for i, a in enumerate(objects):  # each object against the later ones, both ways
+        for i, a in enumerate(objects):  # each object against the later ones
             for b in objects[i + 1 :]:
-                mu = sc.friction(b.name, a.name)
-                pairs += [ContactPair(a, b, friction=mu), ContactPair(b, a, friction=mu)]
+                pairs += object_pairs(a, b, sc.friction(b.name, a.name))
         extra: dict = {}
         if self.hand is not None:
             hand = self.hand_body(angles)
@@ -493,3 +492,4 @@ class GraspRun:
             name=spec.name,
             force=force if force > 0 else None,
         )
+

@@ -2,10 +2,31 @@
 
 from __future__ import annotations
 
+import os
+import shutil
+import tempfile
+
 import pytest
 
 import fem
+from contact.objects.cache import CACHE_ENV
 from tests.helpers import distort, mixed_mesh
+
+_CACHE = None
+
+
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """Filled object meshes kept in a folder of this test session's, not the user's cache."""
+    global _CACHE
+    if CACHE_ENV not in os.environ:
+        _CACHE = tempfile.mkdtemp(prefix="grasp-contact-cache-")
+        os.environ[CACHE_ENV] = _CACHE
+
+
+def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
+    if _CACHE is not None:
+        shutil.rmtree(_CACHE, ignore_errors=True)
+        os.environ.pop(CACHE_ENV, None)
 
 
 @pytest.fixture

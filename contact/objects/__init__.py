@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from .meshing import boundary_triangles, mesh_object, object_faces, read_surface
-from .placed import SceneObject, from_ball, from_scene
+from .placed import SceneObject, from_ball, from_scene, object_pairs
 from .surface import (
     DEGENERATE_AREA,
     HAND_LENGTH,
@@ -24,5 +24,6 @@ __all__ = [
     "from_scene",
     "mesh_object",
     "object_faces",
+    "object_pairs",
     "read_surface",
 ]

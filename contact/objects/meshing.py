@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 import fem
 
 from ..errors import ObjectError
+from .cache import cached
 from .surface import check_object_surface
 
 __all__ = ["boundary_triangles", "mesh_object", "object_faces", "read_surface"]
@@ -131,7 +132,8 @@ def mesh_object(
         pyvista reads (STL, OBJ, PLY, VTP, ...), in metres.
     mesh_size : float or None
         Target tetrahedron edge length (m) for a surface; None: the surface's mean edge
-        length. Ignored for a volume mesh.
+        length. Ignored for a volume mesh. A surface's fill is kept between runs
+        (:mod:`contact.objects.cache`): the same file and size give the same tetrahedra.
     where : str
         The scene key that gave the file (``object[1].mesh``), starting every message.
     **tetwild_options
@@ -184,7 +186,11 @@ def mesh_object(
         len(tri),
         "its mean edge length" if mesh_size is None else f"{mesh_size:g} m",
     )
-    try:
-        return fem.tetrahedralize((points, tri), mesh_size, **tetwild_options)
-    except fem.MeshError as exc:
-        raise ObjectError(f"{prefix}cannot be filled with tetrahedra: {exc}") from None
+
+    def fill() -> fem.Mesh:
+        try:
+            return fem.tetrahedralize((points, tri), mesh_size, **tetwild_options)
+        except fem.MeshError as exc:
+            raise ObjectError(f"{prefix}cannot be filled with tetrahedra: {exc}") from None
+
+    return cached(path, f"size={mesh_size!r} options={sorted(tetwild_options.items())!r}", fill)

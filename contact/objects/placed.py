@@ -27,8 +27,9 @@ from ..hand.objects import ObjectAssociation
 from ..scene.model import Follow
 from ..scene.objects import ObjectScene
 from ..solver.body import ElasticBody
+from ..solver.pairs import ContactPair
 
-__all__ = ["SceneObject", "from_ball", "from_scene"]
+__all__ = ["SceneObject", "from_ball", "from_scene", "object_pairs"]
 
 log = logging.getLogger(__name__)
 
@@ -196,3 +197,20 @@ def from_scene(spec: ObjectScene, mesh: fem.Mesh, where: str) -> SceneObject:
         fixed=spec.fixed,
         centre=placed.points.mean(axis=0),
     )
+
+
+def object_pairs(a: ElasticBody, b: ElasticBody, mu: float) -> list[ContactPair]:
+    """The pairs of two objects: one mortar pair where frictionless, else rows both ways.
+
+    Mortar rows pass the contact patch test (a uniform pressure across two blocks stays
+    uniform), which node-to-surface rows both ways do not; they take no friction. The
+    slave is the finer surface (the smaller median tributary area of a contact node).
+    """
+    if mu > 0:
+        return [ContactPair(a, b, friction=mu), ContactPair(b, a, friction=mu)]
+
+    def fineness(body: ElasticBody) -> float:
+        return float(np.median(body.node_areas[body.contact_nodes]))
+
+    slave, master = (a, b) if fineness(a) <= fineness(b) else (b, a)
+    return [ContactPair(slave, master, mortar=True)]

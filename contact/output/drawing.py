@@ -46,14 +46,20 @@ class Bar:
     blank: bool
 
 
-def draw_body(plotter: pyvista.Plotter, body: BodyPicture, bar: Bar, bar_at: int | None) -> None:
-    """A body opaque, coloured by its own scale; its colour bar when ``bar_at`` is given."""
+def draw_body(
+    plotter: pyvista.Plotter, body: BodyPicture, bar: Bar, bar_at: int | None, slots: int = 2
+) -> None:
+    """A body opaque, coloured by its own scale; its colour bar when ``bar_at`` is given.
+
+    The bars share the bottom of the view in ``slots`` equal places (at least two).
+    """
+    step = 0.96 / max(2, slots)
     if bar.blank:
         plotter.add_mesh(body.surface, color="#bbbbbb", smooth_shading=True)
         if bar_at is not None:
             plotter.add_text(
                 f"{body.name}: no stress",
-                position=(0.03 + 0.48 * bar_at, 0.02),
+                position=(0.03 + step * bar_at, 0.02),
                 viewport=True,
                 font_size=10,
                 color="black",
@@ -76,13 +82,13 @@ def draw_body(plotter: pyvista.Plotter, body: BodyPicture, bar: Bar, bar_at: int
             mapper=plotter.mapper,
             color="black",
             fmt="%.3g",
-            title_font_size=13,
+            title_font_size=13 if slots <= 2 else 10,
             label_font_size=11,
             n_labels=4,
             vertical=False,
-            position_x=0.03 + 0.48 * bar_at,
+            position_x=0.03 + step * bar_at,
             position_y=0.03,
-            width=0.44,
+            width=step - 0.04,
             height=0.08,
             above_label="above" if bar.clipped else None,
         )

@@ -363,7 +363,7 @@ def _shoot(
     try:
         plotter.subplot(0, 0)
         for k, body in enumerate(pic.bodies):
-            draw_body(plotter, body, bars[body.name], bar_at=k)
+            draw_body(plotter, body, bars[body.name], bar_at=k, slots=len(pic.bodies))
         if not views:
             draw_pushes(plotter, pic.forces, arrow)
         draw_planes(plotter, pic, size)

@@ -16,6 +16,7 @@ from .model import (
     PlaneScene,
     SolverScene,
 )
+from .objects import ObjectScene
 from .read import load_scene
 from .sizing import SceneSize
 from .spec import Scene
@@ -30,6 +31,7 @@ __all__ = [
     "Follow",
     "HandScene",
     "Material",
+    "ObjectScene",
     "OutputScene",
     "PlaneScene",
     "Scene",

@@ -1,0 +1,195 @@
+"""Objects in a run: balance and action-reaction with the hand, fixed objects, bad meshes.
+
+The blocks are volume meshes (structured bricks written as VTU), used as they are: no
+fTetWild fill, the same mesh every run.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import fem
+from contact.grasp import main
+from contact.run import GraspRun
+from contact.scene import load_scene
+
+E_BLOCK = 1.0e6
+
+
+def block(tmp_path: Path, edge: float = 0.02, n: int = 4, name: str = "block") -> Path:
+    """A cube of bricks centred at its origin, as a VTU file."""
+    mesh = fem.box_mesh((edge,) * 3, (n,) * 3, origin=(-edge / 2,) * 3)
+    path = tmp_path / f"{name}.vtu"
+    fem.write_mesh(path, mesh)
+    return path
+
+
+TWO = """\
+[scene]
+name = "two"
+
+[ball]
+radius = 0.035
+kind = "hollow"
+thickness = 0.003
+pressure = 2.0e4
+element = "hex"
+mesh_size = 0.005
+center = [0.0, 0.06, -0.058]
+material = {{ E = 1.5e6, nu = 0.45, density = 1100.0 }}
+friction = 0.5
+
+[[object]]
+mesh = "{block}"
+center = [0.0, 0.06, -0.1030]
+material = {{ E = 1.0e6, nu = 0.3, density = 1000.0 }}
+friction = 0.5
+
+[hand]
+resolution = "coarse"
+
+[[hand.keyframe]]
+time = 0.0
+angles = {{}}
+
+[[plane]]
+name = "table"
+point = [0.0, 0.0, -0.1130]
+normal = [0.0, 0.0, 1.0]
+offsets = [[0.0, 0.0, 0.0, 0.0015]]
+
+[frames]
+times = [0.0]
+
+[output]
+directory = "{out}"
+pictures = false
+"""
+
+
+def test_two_objects_and_the_hand_balance_and_act_and_react(tmp_path: Path) -> None:
+    # the table lifts a block into the ball and the ball into the palm: ball/hand,
+    # ball/block and block/table contacts in one frame, with friction
+    path = tmp_path / "two.toml"
+    path.write_text(TWO.format(block=block(tmp_path).as_posix(), out=(tmp_path / "r").as_posix()))
+    run = GraspRun(load_scene(path))
+    res, _, _, bodies = run.frame(0.0)
+    assert res.converged and res.held, res.stop_reason
+    pairs = set(res.contacts["pair"])
+    assert {"ball/hand", "ball/block", "block/table"} <= pairs | {"hand/ball", "block/ball"}
+    assert any(p in pairs for p in ("ball/hand", "hand/ball"))
+    assert any(p in pairs for p in ("ball/block", "block/ball"))
+    scale = sum(np.abs(res.contact_force[b.name]).sum() for b in bodies)
+    for b in bodies[:2]:  # the free objects: in balance in force and moment
+        f = res.contact_force[b.name] + b.loads.reshape(-1, 3)
+        assert np.abs(res.contact_force[b.name]).sum() > 0.05 * scale
+        assert np.abs(f.sum(axis=0)).max() <= 1e-10 * scale
+        c = b.mesh.points.mean(axis=0)
+        size = np.ptp(b.mesh.points, axis=0).max()
+        assert np.abs(np.cross(b.mesh.points - c, f).sum(axis=0)).max() <= 1e-10 * scale * size
+    # action and reaction: every body and the plane together carry nothing
+    total = sum(res.contact_force[b.name].sum(axis=0) for b in bodies)
+    total = total + sum(res.obstacle_forces.values())
+    assert np.abs(total).max() <= 1e-10 * scale
+
+
+PLATES = """\
+[[object]]
+name = "block"
+mesh = "{block}"
+material = {{ E = {E}, nu = 0.3, density = 1000.0 }}
+{fixed}
+
+[[object]]
+name = "top"
+mesh = "{top}"
+center = [0.0, 0.0, 0.02]
+material = {{ E = {E}, nu = 0.3, density = 1000.0 }}
+
+[[plane]]
+name = "press"
+point = [0.0, 0.0, 0.03]
+normal = [0.0, 0.0, -1.0]
+offsets = [[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, -0.0002]]
+
+{bottom}
+
+[frames]
+times = [1.0]
+
+[output]
+directory = "{out}"
+pictures = false
+"""
+
+BOTTOM = """\
+[[plane]]
+name = "bottom"
+point = [0.0, 0.0, -0.01]
+normal = [0.0, 0.0, 1.0]
+"""
+
+
+@pytest.mark.parametrize("fixed", [False, True])
+def test_a_stack_of_blocks_is_pressed_as_its_springs_in_series(tmp_path: Path, fixed: bool) -> None:
+    # two 20 mm blocks stacked between plates (or the lower one fixed, no plate under it):
+    # frictionless, uniform stress, F = E A d / (2 H) for the pressed stack, or E A d / H
+    # for the upper block on a rigid fixed one: linear bricks and the blocks' mortar rows
+    # (the contact patch test) are exact
+    path = tmp_path / "stack.toml"
+    path.write_text(
+        PLATES.format(
+            block=block(tmp_path).as_posix(), top=block(tmp_path, name="top").as_posix(),
+            E=E_BLOCK, fixed="fixed = true" if fixed else "", bottom="" if fixed else BOTTOM,
+            out=(tmp_path / "r").as_posix(),
+        )
+    )  # fmt: skip
+    run = GraspRun(load_scene(path))
+    res, _, _, bodies = run.frame(1.0)
+    assert res.converged, res.stop_reason
+    a, h, d = 0.02**2, 0.02, 0.0002
+    expected = E_BLOCK * a * d / (h if fixed else 2 * h)
+    press = res.obstacle_forces["press"]
+    assert press[2] == pytest.approx(expected, rel=1e-8)
+    top = res.contact_force["top"].sum(axis=0)
+    low = res.contact_force["block"].sum(axis=0)
+    assert np.abs(top).max() <= 1e-9 * expected  # the free upper block in balance
+    if fixed:  # the fixed block's reaction is the press's force
+        assert low[2] == pytest.approx(-expected, rel=1e-8)
+        assert np.abs(res.displacement["block"]).max() == 0.0
+    else:
+        assert res.obstacle_forces["bottom"][2] == pytest.approx(-expected, rel=1e-8)
+
+
+@pytest.mark.parametrize(
+    ("surface", "why"),
+    [
+        ("open", "the surface is open"),
+        ("millimetres", "in millimetres? the scene is in metres; scale it by 0.001"),
+    ],
+)
+def test_a_bad_object_mesh_exits_2_with_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture, surface: str, why: str
+) -> None:
+    import pyvista as pv
+
+    cube = pv.Cube(x_length=0.04, y_length=0.04, z_length=0.04).triangulate()
+    if surface == "open":
+        cube = pv.PolyData(cube.points, cube.faces[: -2 * 4])  # two triangles missing
+    else:
+        cube = cube.scale(1000.0)
+    stl = tmp_path / "thing.stl"
+    cube.save(stl)
+    path = tmp_path / "scene.toml"
+    path.write_text(
+        f'[[object]]\nmesh = "{stl.as_posix()}"\n\n[frames]\ntimes = [0.0]\n\n'
+        f'[output]\ndirectory = "{(tmp_path / "r").as_posix()}"\npictures = false\n'
+    )
+    assert main([str(path), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert f"object[0].mesh = '{stl}'" in err and why in err
+    assert "\n" not in err and "Traceback" not in err
+    assert not (tmp_path / "r").exists()
