@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import meshio
 import numpy as np
 import pytest
 
@@ -15,6 +16,7 @@ import fem
 from contact.grasp import main
 from contact.run import GraspRun
 from contact.scene import load_scene
+from meshes.objects.make import cube_surface
 
 E_BLOCK = 1.0e6
 
@@ -148,7 +150,7 @@ def test_a_stack_of_blocks_is_pressed_as_its_springs_in_series(tmp_path: Path, f
         )
     )  # fmt: skip
     run = GraspRun(load_scene(path))
-    res, _, _, bodies = run.frame(1.0)
+    res, _, _, _ = run.frame(1.0)
     assert res.converged, res.stop_reason
     a, h, d = 0.02**2, 0.02, 0.0002
     expected = E_BLOCK * a * d / (h if fixed else 2 * h)
@@ -164,25 +166,45 @@ def test_a_stack_of_blocks_is_pressed_as_its_springs_in_series(tmp_path: Path, f
         assert res.obstacle_forces["bottom"][2] == pytest.approx(-expected, rel=1e-8)
 
 
+def _bad(kind: str) -> tuple[np.ndarray, np.ndarray]:
+    """A 40 mm cube surface made bad in one way."""
+    p, t = cube_surface(0.04, 0.04)
+    if kind == "open":
+        return p, t[2:]
+    if kind == "non-manifold":
+        q, u = cube_surface(0.04, 0.04)
+        return np.vstack([p, q + 0.04 * np.array([1.0, 1.0, 0.0])]), np.vstack([t, u + len(p)])
+    if kind == "wound":
+        t = t.copy()
+        t[5] = t[5, ::-1]
+        return p, t
+    if kind == "self-intersecting":
+        return np.vstack([p, p + 0.01]), np.vstack([t, t + len(p)])
+    if kind == "degenerate":
+        a, b, c = t[0]
+        p = np.vstack([p, 0.5 * (p[a] + p[b])])
+        m = len(p) - 1
+        return p, np.vstack([t[1:], [[a, m, c], [m, b, c], [a, b, m]]])
+    return 1000.0 * p, t  # millimetres
+
+
 @pytest.mark.parametrize(
-    ("surface", "why"),
+    ("kind", "why"),
     [
         ("open", "the surface is open"),
+        ("non-manifold", "the surface is not manifold"),
+        ("wound", "the surface is inconsistently oriented"),
+        ("self-intersecting", "the surface intersects itself"),
+        ("degenerate", "degenerate triangle(s)"),
         ("millimetres", "in millimetres? the scene is in metres; scale it by 0.001"),
     ],
 )
 def test_a_bad_object_mesh_exits_2_with_one_line(
-    tmp_path: Path, capsys: pytest.CaptureFixture, surface: str, why: str
+    tmp_path: Path, capsys: pytest.CaptureFixture, kind: str, why: str
 ) -> None:
-    import pyvista as pv
-
-    cube = pv.Cube(x_length=0.04, y_length=0.04, z_length=0.04).triangulate()
-    if surface == "open":
-        cube = pv.PolyData(cube.points, cube.faces[: -2 * 4])  # two triangles missing
-    else:
-        cube = cube.scale(1000.0)
-    stl = tmp_path / "thing.stl"
-    cube.save(stl)
+    stl = tmp_path / "thing.ply"
+    points, triangles = _bad(kind)
+    meshio.write_points_cells(stl, points, [("triangle", triangles.astype(np.int32))])
     path = tmp_path / "scene.toml"
     path.write_text(
         f'[[object]]\nmesh = "{stl.as_posix()}"\n\n[frames]\ntimes = [0.0]\n\n'

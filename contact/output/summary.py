@@ -76,7 +76,7 @@ def verdict(result: FrameResult) -> dict[str, Any]:
 
 
 def grip_force(result: FrameResult, hand: str | None) -> float:
-    """The total grip force: the sum of the normal contact forces on the ball (N).
+    """The total grip force: the sum of the normal contact forces on the objects (N).
 
     Parameters
     ----------
