@@ -24,6 +24,8 @@ from numpy.typing import NDArray
 import fem
 
 from ..errors import ObjectError
+from ..geometry import enclosed_volume
+from ..scene import sizing
 from .cache import cached
 from .surface import check_object_surface
 
@@ -116,6 +118,26 @@ def _read_volume(path: Path, prefix: str) -> tuple[fem.Mesh | None, str | None]:
         raise ObjectError(f"{prefix}{text}") from None
 
 
+def _check_fill(points: NDArray, tri: NDArray, mesh_size: float | None, prefix: str) -> None:
+    """Refuse a fill too big for the machine, from the enclosed volume, before fTetWild runs."""
+    if mesh_size is None:
+        x = points[tri]
+        mesh_size = float(np.linalg.norm(x - np.roll(x, 1, axis=1), axis=2).mean())
+    volume = abs(enclosed_volume(points, tri))
+    nodes = sizing.TET_ELEMENTS_PER_H3 * volume / mesh_size**3 / sizing.TETS_PER_NODE
+    nodes += len(points)
+    memory = sizing.BASE_BYTES + sizing.body_memory(3.0 * nodes)
+    avail = sizing.available_memory()
+    if avail is not None and memory > avail:
+        raise ObjectError(
+            f"{prefix}too fine at mesh_size {mesh_size:g} m: about {nodes:.3g} nodes, "
+            f"{sizing.format_bytes(memory)} of memory, and the machine has "
+            f"{sizing.format_bytes(avail)} available: give a larger mesh_size"
+        )
+    if 3.0 * nodes > sizing.WARN_DOFS:
+        log.warning("%sabout %.3g nodes at mesh_size %g m: a big object", prefix, nodes, mesh_size)
+
+
 def mesh_object(
     path: str | os.PathLike,
     mesh_size: float | None = None,
@@ -186,6 +208,7 @@ def mesh_object(
         len(tri),
         "its mean edge length" if mesh_size is None else f"{mesh_size:g} m",
     )
+    _check_fill(points, tri, mesh_size, prefix)
 
     def fill() -> fem.Mesh:
         try:

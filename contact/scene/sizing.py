@@ -29,12 +29,14 @@ __all__ = [
     "HAND_SIZE",
     "MAX_FRAMES",
     "REFERENCE_DOFS",
+    "TETS_PER_NODE",
     "TET_ELEMENTS_PER_H3",
     "WARN_DOFS",
     "WARN_FRAMES",
     "SceneSize",
     "available_memory",
     "ball_size",
+    "body_memory",
     "estimate",
     "format_bytes",
 ]
@@ -45,7 +47,7 @@ log = logging.getLogger(__name__)
 #: of that edge has 8.5; fTetWild's count moves in steps up to this).
 TET_ELEMENTS_PER_H3 = 16.0
 #: Tetrahedra per interior node of a tetrahedral mesh.
-_TETS_PER_NODE = 6.0
+TETS_PER_NODE = 6.0
 #: Nodes and elements of the shipped hand's flesh per resolution.
 HAND_SIZE = {"coarse": (4419, 15355), "fine": (21041, 90177)}
 #: Peak memory (bytes) per DOF of a body's assembly and factorisation up to
@@ -142,7 +144,7 @@ def ball_size(spec: BallSpec) -> tuple[float, float]:
     volume = 4.0 / 3.0 * math.pi * (r**3 - a**3)
     elements = TET_ELEMENTS_PER_H3 * volume / h**3
     surface = sum(_icosphere_nodes(s, h) for s in (r, a) if s > 0)
-    return elements / _TETS_PER_NODE + surface, elements
+    return elements / TETS_PER_NODE + surface, elements
 
 
 def _icosphere_nodes(radius: float, size: float) -> float:
@@ -152,7 +154,7 @@ def _icosphere_nodes(radius: float, size: float) -> float:
     return 10.0 * 4.0**k + 2.0
 
 
-def _memory(dofs: float) -> float:
+def body_memory(dofs: float) -> float:
     """Peak bytes of assembling and factoring a body of ``dofs`` DOFs."""
     return BYTES_PER_DOF * dofs * max(1.0, dofs / REFERENCE_DOFS) ** (1.0 / 3.0)
 
@@ -177,10 +179,10 @@ def estimate(ball: BallSpec | None, hand_resolution: str | None, frames: int) ->
     if ball is None:
         memory_ball = 0.0
     elif ball.mesh is not None:  # a mesh file: some hundred bytes a node on disk
-        memory_ball = _memory(3.0 * Path(ball.mesh).stat().st_size / 100.0)
+        memory_ball = body_memory(3.0 * Path(ball.mesh).stat().st_size / 100.0)
     else:
-        memory_ball = _memory(3.0 * nodes)
-    memory = BASE_BYTES + memory_ball + _memory(3.0 * hn) + BYTES_PER_FRAME * frames
+        memory_ball = body_memory(3.0 * nodes)
+    memory = BASE_BYTES + memory_ball + body_memory(3.0 * hn) + BYTES_PER_FRAME * frames
     return SceneSize(int(min(nodes, 1e18)), int(min(elements, 1e18)), hn, he, frames, memory)
 
 

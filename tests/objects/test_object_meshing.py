@@ -12,7 +12,7 @@ import pytest
 import fem
 from contact.errors import ObjectError
 from contact.objects import boundary_triangles, mesh_object, object_faces
-from meshes.objects.make import cube_surface
+from meshes.objects.make import OBJECTS_DIR, cube_surface
 
 EDGE = 0.04
 
@@ -102,3 +102,15 @@ def test_bad_surface_refused_before_filling(tmp_path):
     p, t = cube_surface(EDGE, EDGE)
     with pytest.raises(ObjectError, match="the surface is open"):
         mesh_object(write(tmp_path / "open.obj", p, t[1:]))
+
+
+def test_a_fill_too_fine_for_the_machine_is_refused_before_it_runs(monkeypatch):
+    from contact.scene import sizing
+
+    monkeypatch.setattr(sizing, "available_memory", lambda: 2e9)
+    path = OBJECTS_DIR / "cube.stl"
+    with pytest.raises(ObjectError) as info:
+        mesh_object(path, 1e-4, where="object[0].mesh")
+    msg = str(info.value)
+    assert msg.startswith(f"object[0].mesh = '{path}': too fine at mesh_size 0.0001 m: about ")
+    assert "give a larger mesh_size" in msg and "\n" not in msg
