@@ -215,3 +215,36 @@ def test_a_bad_object_mesh_exits_2_with_one_line(
     assert f"object[0].mesh = '{stl}'" in err and why in err
     assert "\n" not in err and "Traceback" not in err
     assert not (tmp_path / "r").exists()
+
+
+BONE = """\
+[[object]]
+name = "peg"
+mesh = "{block}"
+center = [-0.007, 0.06, 0.0]
+
+[hand]
+resolution = "coarse"
+
+[[hand.keyframe]]
+time = 0.0
+angles = {{}}
+
+[frames]
+count = 1
+
+[output]
+directory = "{out}"
+pictures = false
+"""
+
+
+def test_an_object_inside_a_bone_is_bad_input(tmp_path: Path, capsys: pytest.CaptureFixture):
+    out = tmp_path / "results"
+    scene = tmp_path / "bone.toml"
+    scene.write_text(BONE.format(block=block(tmp_path, 0.006, 2).as_posix(), out=out.as_posix()))
+    assert main([str(scene), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "object 'peg' starts inside bone middle_metacarpal" in err
+    assert "\n" not in err and "Traceback" not in err
+    assert not out.exists()
