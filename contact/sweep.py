@@ -185,6 +185,15 @@ def _client(scheduler: str | None, workers: int, threads: int):
         raise
 
 
+def _unguarded_child() -> bool:
+    """True in a spawned process while it imports its parent's script as ``__mp_main__``.
+
+    During that import ``__mp_main__`` is the script's module, not yet ``__main__``.
+    """
+    mp_main = sys.modules.get("__mp_main__")
+    return mp_main is not None and mp_main is not sys.modules.get("__main__")
+
+
 def sweep(
     path: str | Path,
     *,
@@ -216,7 +225,11 @@ def sweep(
     -------
     int
         0 every run done, 1 a run failed, 2 bad input (one line on stderr, nothing run).
+        A script that calls it without ``if __name__ == "__main__":`` is imported again by
+        each worker process it starts: there it returns 2 at once, doing nothing.
     """
+    if _unguarded_child():
+        return 2  # a worker process re-importing a script that calls sweep() unguarded
     for name, n in (("workers", workers), ("threads", threads)):
         if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
             print(f"error: {name} must be a positive integer, got {n!r}", file=sys.stderr)
@@ -245,6 +258,14 @@ def sweep(
             client, cluster = _client(scheduler, n, threads or 1)
         except (OSError, TimeoutError) as exc:
             print(f"error: scheduler {scheduler}: does not answer ({exc})", file=sys.stderr)
+            return 2
+        except RuntimeError as exc:  # spawned workers re-import an unguarded script
+            line = (str(exc).splitlines() or [""])[0]
+            print(
+                f"error: the local cluster's worker processes did not start ({line}): a script "
+                'that calls contact.sweep.sweep() must call it under if __name__ == "__main__":',
+                file=sys.stderr,
+            )
             return 2
         try:
             _submit(client, todo, sw, threads, rows, quiet)

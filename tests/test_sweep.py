@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import csv
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -290,3 +292,23 @@ def test_a_base_scene_that_does_not_exist_exits_2(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert "pads.toml" in err and "\n" not in err and "Traceback" not in err
     assert not (out / "sweep.csv").exists()
+
+
+def test_a_script_without_a_main_guard_still_sweeps(tmp_path):
+    # the embedded cluster's worker processes import the script again: there sweep() must
+    # return at once instead of starting clusters of its own
+    _scene(tmp_path)
+    sw = _sweep(tmp_path, '"plane[0].friction" = [0.5]')
+    script = tmp_path / "unguarded.py"
+    script.write_text(
+        "from contact.sweep import sweep\n"
+        f"print('rc', sweep({str(sw)!r}, out={str(tmp_path / 'out')!r}, workers=1, quiet=True))\n"
+    )
+    proc = subprocess.run(
+        [sys.executable, str(script)], capture_output=True, text=True, timeout=300,
+        cwd=Path(__file__).resolve().parents[1],
+    )  # fmt: skip
+    lines = proc.stdout.split()
+    assert proc.returncode == 0 and lines[-2:] == ["rc", "0"], (proc.stdout, proc.stderr)
+    assert "Traceback" not in proc.stderr and "error" not in proc.stderr
+    assert [r["status"] for r in _rows(tmp_path / "out")] == ["done"]
