@@ -132,7 +132,10 @@ def test_examples_load(path: Path) -> None:
     assert scene.frames and list(scene.frames) == sorted(scene.frames)
     echo = json.loads(json.dumps(scene.echo()))
     assert echo["scene"]["name"] == scene.name
-    assert echo["ball"]["radius"] == scene.ball.radius
+    if scene.ball is not None:
+        assert echo["ball"]["radius"] == scene.ball.radius
+    assert [o["name"] for o in echo["object"]] == [o.name for o in scene.objects]
+    assert scene.object_names
     assert echo["frames"]["times"] == list(scene.frames)
     if scene.hand is not None:
         sk = load_skeleton(scene.hand.rig)

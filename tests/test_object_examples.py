@@ -1,0 +1,30 @@
+"""The shipped object examples: the hand lifts an object off a table and holds it by friction."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from contact.grasp import main
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["cube"])
+def test_the_example_holds_its_object_at_every_frame(tmp_path: Path, name: str) -> None:
+    out = tmp_path / name
+    assert main([str(ROOT / "examples" / f"{name}.toml"), "--quiet", "--no-pictures",
+                 "--out", str(out)]) == 0  # fmt: skip
+    summary = json.loads((out / "summary.json").read_text())
+    frames = summary["frames"]
+    assert all(f["converged"] and f["held"] for f in frames)
+    assert all(f["verdict"]["realistic"] for f in frames)
+    # at the end the table is gone: the fingers carry the whole weight
+    last = frames[-1]
+    table = np.linalg.norm(last["obstacle_forces"]["table"]["force"])
+    assert table == 0.0 and last["grip_force"] > 0
+    assert (out / f"{name}.pvd").is_file()
