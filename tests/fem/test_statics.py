@@ -290,6 +290,7 @@ def test_partial_solves_in_chunks_keep_their_work_arrays(body, monkeypatch):
     marked = np.arange(3, a.shape[0], 4)
     inv = np.linalg.inv(a.toarray())[np.ix_(marked, marked)]
     rng = np.random.default_rng(2)
+    monkeypatch.setattr(fl, "SCHUR_MAX", 0)  # the partial solves, not the Schur complement
     # three columns a chunk, capped by the values kept, then by the columns a call
     for work, cols in ((3 * a.shape[0], 100), (100 * a.shape[0], 3)):
         monkeypatch.setattr(fl, "PARTIAL_WORK", work)
@@ -304,6 +305,34 @@ def test_partial_solves_in_chunks_keep_their_work_arrays(body, monkeypatch):
     np.testing.assert_allclose(f.solve_marked(b), inv @ b, rtol=1e-10, atol=1e-14)
     with pytest.raises(fem.SolverError, match=f"expected {marked.size} rows"):
         f.solve_marked(np.ones(marked.size + 1))
+
+
+def test_the_marked_block_s_schur_complement_answers_partial_solves(body, monkeypatch):
+    """Up to SCHUR_MAX marked DOFs, PARDISO's Schur complement of the marked block (its
+    dense Cholesky) answers the partial solves: the dense inverse on the marks; full solves
+    of the same factorisation stay exact; above it, the partial solves."""
+    import fem.linsolve as fl
+
+    mesh, k = body
+    held = fem.node_dofs(np.flatnonzero(mesh.points[:, 0] == 0))
+    free = np.setdiff1d(np.arange(k.shape[0]), held)
+    a = k[free][:, free].tocsr()
+    marked = np.arange(3, a.shape[0], 4)
+    inv = np.linalg.inv(a.toarray())
+    rng = np.random.default_rng(3)
+    for limit, schur in ((marked.size, True), (marked.size - 1, False)):
+        monkeypatch.setattr(fl, "SCHUR_MAX", limit)
+        f = fem.factorize(a, "pardiso", marked=marked)
+        assert (f._schur is not None) == schur
+        b = rng.standard_normal((marked.size, 4))
+        want = inv[np.ix_(marked, marked)] @ b
+        np.testing.assert_allclose(f.solve_marked(b), want, rtol=1e-10, atol=1e-14)
+        np.testing.assert_allclose(f.solve_marked(b[:, 0]), want[:, 0], rtol=1e-10, atol=1e-14)
+        full = rng.standard_normal(a.shape[0])
+        np.testing.assert_allclose(f.solve(full), inv @ full, rtol=1e-9, atol=1e-14)
+        on_marks = np.zeros(a.shape[0])
+        on_marks[marked] = b[:, 1]
+        np.testing.assert_allclose(f.solve(on_marks), inv @ on_marks, rtol=1e-9, atol=1e-14)
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
