@@ -248,3 +248,51 @@ def test_an_object_inside_a_bone_is_bad_input(tmp_path: Path, capsys: pytest.Cap
     assert "object 'peg' starts inside bone middle_metacarpal" in err
     assert "\n" not in err and "Traceback" not in err
     assert not out.exists()
+
+
+RESTING = """\
+[scene]
+gravity = [{gx}, 0.0, {gz}]
+
+[[object]]
+name = "block"
+mesh = "{block}"
+rotation = [0.0, 2.0, 0.0]
+material = {{ E = 1.0e6, nu = 0.3, density = 1000.0 }}
+friction = 0.5
+
+[[plane]]
+name = "table"
+point = [{px}, 0.0, {pz}]
+normal = [{nx}, 0.0, {nz}]
+
+[frames]
+times = [0.0]
+
+[output]
+directory = "{out}"
+pictures = false
+"""
+
+
+@pytest.mark.parametrize("gap", [-2e-5, 0.0, 2e-5])
+def test_a_block_resting_on_its_face_microns_from_a_table_is_held(tmp_path: Path, gap: float):
+    # a flat face parallel to the table, every node a few microns off it (or in it), the
+    # weight along the table's normal: friction holds the block from any such start
+    import math
+
+    a = math.radians(2.0)
+    n = np.array([math.sin(a), 0.0, math.cos(a)])  # the block's bottom face's inward normal
+    half = 0.01
+    point = -(half + gap) * n
+    g = -9.81 * n
+    path = tmp_path / "rest.toml"
+    path.write_text(RESTING.format(
+        gx=g[0], gz=g[2], block=block(tmp_path).as_posix(), px=point[0], pz=point[2],
+        nx=n[0], nz=n[2], out=(tmp_path / "r").as_posix(),
+    ))  # fmt: skip
+    run = GraspRun(load_scene(path))
+    res, _, _, bodies = run.frame(0.0)
+    assert res.converged and res.held, res.stop_reason
+    weight = bodies[0].loads.reshape(-1, 3).sum(axis=0)
+    assert np.allclose(res.obstacle_forces["table"], weight, rtol=1e-9, atol=1e-12)

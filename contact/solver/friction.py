@@ -43,6 +43,8 @@ from numpy.typing import NDArray
 
 from fem.threads import dense_threads
 
+from .delassus import TOUCHING
+
 __all__ = ["FRICTION_TOLERANCE", "FrictionResult", "solve_friction"]
 
 #: Residual of the natural map, over the force scale, below which a solve has converged.
@@ -344,8 +346,12 @@ def _newton(w, g, rhs, c, mu, tangent, start, load_scale, tol, max_steps) -> Fri
     lam = np.zeros(m) if start is None else np.asarray(start, float).copy()
     lam[:k] = np.maximum(lam[:k], 0.0)
     if start is None:
-        # start from the rows that penetrate without forces, closed and stuck
+        # start from the rows that penetrate without forces, closed and stuck; where none
+        # does (a flat face microns from a plane), from every row touching, the free
+        # bodies placed onto them: from all open, no step can close a row
         lam[:k] = np.maximum(base.cp * rhs[:k], 0.0)
+        if not lam[:k].any():
+            lam[:k] = TOUCHING * max(load_scale, 1e-300)
     a = _placed(base, lam)
     scale = max(float(np.abs(base.cp * rhs[:k]).max(initial=0.0)), load_scale, 1e-300)
 
