@@ -296,3 +296,43 @@ def test_a_block_resting_on_its_face_microns_from_a_table_is_held(tmp_path: Path
     assert res.converged and res.held, res.stop_reason
     weight = bodies[0].loads.reshape(-1, 3).sum(axis=0)
     assert np.allclose(res.obstacle_forces["table"], weight, rtol=1e-9, atol=1e-12)
+
+
+FOLLOW = """\
+[[object]]
+name = "peg"
+mesh = "{block}"
+center = [0.0, 0.1, -0.06]
+follow = {{ joint = "index_mcp", start = 0.0, stop = 1.0 }}
+
+[hand]
+resolution = "coarse"
+
+[[hand.keyframe]]
+time = 0.0
+angles = {{ index_mcp = 0.0 }}
+
+[[hand.keyframe]]
+time = 1.0
+angles = {{ index_mcp = 30.0 }}
+
+[frames]
+times = [0.0, 1.0]
+"""
+
+
+def test_an_object_follows_its_joint_as_the_ball_does(tmp_path: Path) -> None:
+    from contact.hand.objects import ObjectAssociation
+
+    path = tmp_path / "follow.toml"
+    path.write_text(FOLLOW.format(block=block(tmp_path, 0.006, 2).as_posix()))
+    run = GraspRun(load_scene(path))
+    (peg,) = run.objects
+    assert not peg.rolls and peg.follow is not None
+    assert np.allclose(run.placement(peg, 0.0), np.eye(4))
+    moved = run.placement(peg, 1.0)
+    assoc = ObjectAssociation("peg", "index_mcp", 0.0, 1.0)
+    assert np.allclose(moved, assoc.transform(run.hand.skeleton, run.keyframes.pose, 1.0))
+    assert not np.allclose(moved, np.eye(4))
+    body = run.object_body(peg, 1.0)
+    assert np.allclose(body.mesh.points, peg.points(moved))
