@@ -22,6 +22,7 @@ BENCHMARKS = (
     "iteration",
     "lcp",
     "frame",
+    "patch",
     "friction",
     "holding",
     "sweep",

@@ -20,6 +20,7 @@ from .errors import (
     SolverError,
 )
 from .generators import ball_mesh, graded_ball_mesh, shell_mesh
+from .graded_tets import graded_tet_octant
 from .grids import box_mesh, hex_to_tet
 from .io import read_mesh, read_mesh_data, write_mesh
 from .linsolve import available_backends, factorize
@@ -78,6 +79,7 @@ __all__ = [
     "from_pyvista",
     "gauss_strain",
     "graded_ball_mesh",
+    "graded_tet_octant",
     "gravity_load",
     "hex_to_tet",
     "initial_stress_load",

@@ -49,8 +49,10 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-#: Marked DOFs at most (:meth:`StaticSolver.mark`): the factor's dense trailing block.
-MARK_LIMIT = 2400
+#: Marked DOFs at most (:meth:`StaticSolver.mark`): the factor's dense trailing block,
+#: whose Schur complement answers the partial solves (``fem.linsolve.SCHUR_MAX``); a row
+#: off the marks costs a full solve instead. See benchmarks/results/patch.md.
+MARK_LIMIT = 4800
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,206 @@
+"""A graded tetrahedral octant of a ball from fTetWild, fine at one pole, coarse elsewhere.
+
+The ball's octant ``x, y >= 0, z <= 0`` (about its centre) is filled by
+:func:`fem.tetrahedralize` under a sizing field: target edge length ``fine_size`` within
+``fine_radius`` of the pole ``center - radius e_z``, then growing linearly with the distance
+to it up to ``coarse_size``. It is what a user gets from another mesher than the structured
+bricks of :func:`fem.generators.graded_ball_mesh`: unstructured tetrahedra, graded freely.
+
+The surface handed to fTetWild is the triangulated boundary of a graded brick octant (its
+nodes exactly on the sphere and the three cut planes, fine at the pole); the background
+mesh of the sizing field is the same kind of octant split into tetrahedra. fTetWild's
+output only lies within its envelope ``epsilon`` of that surface, so its boundary nodes are
+snapped back: onto the cut planes, then radially onto the sphere (a move of a small
+fraction of the local size), so that symmetry conditions and the contact geometry are
+exact. The mesh differs from run to run (fTetWild is not deterministic).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .errors import MeshError
+from .generators import graded_ball_mesh
+from .mesh import Mesh
+from .meshing import tetrahedralize
+
+__all__ = ["graded_octant_surface", "graded_tet_octant", "octant_sizing_field"]
+
+
+def _size_at(
+    x: NDArray[np.float64],
+    pole: NDArray[np.float64],
+    fine_size: float,
+    fine_radius: float,
+    coarse_size: float,
+    growth: float,
+) -> NDArray[np.float64]:
+    """Target edge length at the points ``x``: fine near the pole, growing linearly."""
+    d = np.linalg.norm(x - pole, axis=1)
+    return np.minimum(fine_size + (growth - 1.0) * np.maximum(d - fine_radius, 0.0), coarse_size)
+
+
+def graded_octant_surface(
+    radius: float,
+    fine_size: float,
+    fine_radius: float,
+    *,
+    coarse_size: float | None = None,
+    center: ArrayLike = (0.0, 0.0, 0.0),
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """The closed, outward oriented triangle surface of a ball's octant, fine at its pole.
+
+    Parameters
+    ----------
+    radius, fine_size, fine_radius : float
+        As :func:`fem.generators.graded_ball_mesh` (``part="octant"``).
+    coarse_size : float, optional
+        Largest triangle size; ``radius / 5`` by default.
+    center : array_like, shape (3,)
+
+    Returns
+    -------
+    points : ndarray, shape (N, 3)
+        On the sphere or the planes ``x = 0``, ``y = 0``, ``z = 0`` about ``center``.
+    triangles : ndarray, shape (M, 3)
+        Counter-clockwise seen from outside.
+    """
+    fr = min(fine_radius, 0.4 * radius)
+    bricks = graded_ball_mesh(
+        radius, fine_size, fr, coarse_size=coarse_size, part="octant", center=center
+    )
+    quads = bricks.boundary.faces["quad"]
+    tris = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
+    used, inv = np.unique(tris, return_inverse=True)
+    return bricks.points[used].copy(), inv.reshape(-1, 3).astype(np.int64)
+
+
+def octant_sizing_field(
+    radius: float,
+    fine_size: float,
+    fine_radius: float,
+    *,
+    coarse_size: float | None = None,
+    growth: float = 1.3,
+    center: ArrayLike = (0.0, 0.0, 0.0),
+) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]]:
+    """A background tetrahedral mesh of the octant with target edge lengths at its nodes.
+
+    Parameters
+    ----------
+    radius, fine_size, fine_radius : float
+        Ball radius, edge length near the pole and radius of the uniformly fine zone (m).
+    coarse_size : float, optional
+        Largest edge length; ``radius / 5`` by default.
+    growth : float
+        Edge length gained per unit of distance beyond the fine zone is ``growth - 1``.
+    center : array_like, shape (3,)
+
+    Returns
+    -------
+    points, tets, values : ndarray
+        The ``sizing_field`` of :func:`fem.tetrahedralize`.
+    """
+    from scipy.spatial import Delaunay
+
+    c = np.asarray(center, dtype=np.float64)
+    coarse = radius / 5 if coarse_size is None else coarse_size
+    fr = min(fine_radius, 0.4 * radius)
+    bg_fine = min(max(2.0 * fine_size, fr / 4), coarse)
+    nodes = graded_ball_mesh(
+        radius, bg_fine, fr, coarse_size=coarse, part="octant", center=c
+    ).points
+    # a box a little wider than the octant, so that fTetWild's points (within its envelope
+    # of the surface, or on the facets' far side of the sphere) all fall inside it
+    lo = c + radius * np.array([-0.1, -0.1, -1.1])
+    hi = c + radius * np.array([1.1, 1.1, 0.1])
+    axes = [np.linspace(a, b, 8) for a, b in zip(lo, hi)]
+    box = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    pts = np.concatenate([nodes, box])
+    tets = Delaunay(pts).simplices.astype(np.int64)
+    pole = c - np.array([0.0, 0.0, radius])
+    values = _size_at(pts, pole, fine_size, fr, coarse, growth)
+    return pts, tets, values
+
+
+def graded_tet_octant(
+    radius: float,
+    fine_size: float,
+    fine_radius: float,
+    *,
+    coarse_size: float | None = None,
+    growth: float = 1.3,
+    center: ArrayLike = (0.0, 0.0, 0.0),
+    epsilon: float = 1e-3,
+    **tetwild_options: object,
+) -> Mesh:
+    """Tetrahedra filling the octant ``x, y >= 0, z <= 0`` of a ball, fine at its pole.
+
+    Parameters
+    ----------
+    radius : float
+        Ball radius (m).
+    fine_size : float
+        Target edge length within ``fine_radius`` of the pole ``center - radius e_z`` (m).
+    fine_radius : float
+        Radius of the uniformly fine zone (m), at most ``0.4 radius``.
+    coarse_size : float, optional
+        Largest edge length (m); ``radius / 5`` by default.
+    growth : float
+        Beyond the fine zone the target grows by ``growth - 1`` per unit of distance.
+    center : array_like, shape (3,)
+    epsilon : float
+        fTetWild's envelope, relative to the bounding box's diagonal.
+    **tetwild_options
+        Passed on to :func:`fem.tetrahedralize`.
+
+    Returns
+    -------
+    Mesh
+        Tetrahedra; boundary nodes exactly on the sphere and the three cut planes.
+
+    Raises
+    ------
+    MeshError
+        On sizes out of range, or from fTetWild.
+    """
+    if not 0 < fine_size <= (radius / 5 if coarse_size is None else coarse_size):
+        raise MeshError(f"fine_size must lie in (0, coarse_size], got {fine_size!r}")
+    if not growth > 1.0:
+        raise MeshError(f"growth must exceed 1, got {growth!r}")
+    c = np.asarray(center, dtype=np.float64)
+    surface = graded_octant_surface(
+        radius, fine_size, fine_radius, coarse_size=coarse_size, center=c
+    )
+    field = octant_sizing_field(
+        radius, fine_size, fine_radius, coarse_size=coarse_size, growth=growth, center=c
+    )
+    # fTetWild scales its ideal edge length down where the field asks: give it the largest
+    coarse = radius / 5 if coarse_size is None else coarse_size
+    mesh = tetrahedralize(surface, coarse, sizing_field=field, epsilon=epsilon, **tetwild_options)
+    return _snapped(mesh, radius, c, 1.5 * epsilon * radius * np.sqrt(3.0))
+
+
+def _snapped(mesh: Mesh, radius: float, center: NDArray[np.float64], tol: float) -> Mesh:
+    """The mesh with its boundary nodes moved onto the cut planes and the sphere.
+
+    A boundary triangle lies on the plane ``x_k = 0`` when its normal is along ``e_k`` and
+    its nodes are within ``tol`` of it, on the sphere when its normal is radial and its
+    nodes within ``tol`` of it: only their nodes move (a sliver near a plane is not
+    flattened onto it).
+    """
+    p = mesh.points.copy()
+    tri = mesh.boundary.faces["triangle"]
+    x = p[tri] - center
+    n = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    for k in range(3):
+        flat = (np.abs(n[:, k]) > 0.99) & (np.abs(x[:, :, k]) <= tol).all(axis=1)
+        p[np.unique(tri[flat]), k] = center[k]
+    r = np.linalg.norm(x, axis=2)
+    radial = np.einsum("ij,ij->i", n, x.mean(axis=1)) > 0.9 * radius
+    nodes = np.unique(tri[radial & (np.abs(r - radius) <= tol).all(axis=1)])
+    d = p[nodes] - center
+    p[nodes] = center + d * (radius / np.linalg.norm(d, axis=1))[:, None]
+    return Mesh(p, mesh.cells)
