@@ -3,21 +3,21 @@
 For every frame, after Gourret, Magnenat-Thalmann and Thalmann (1989, Fig. 9):
 
 1. position (:meth:`GraspRun.angles`, :meth:`GraspRun.hand_body`,
-   :meth:`GraspRun.ball_body`): the hand's joint angles from the keyframes
+   :meth:`GraspRun.object_body`): the hand's joint angles from the keyframes
    (Kochanek-Bartels), closed further by automatic flexion where the scene asks for it,
-   and every flesh node mapped by JLD; the ball placed (it may follow a joint); the
-   planes moved;
+   and every flesh node mapped by JLD; the ball and the objects placed (each may follow
+   a joint); the planes moved;
 2. to 5. the contact iteration (:func:`contact.solver.iteration.solve_frame`), in contact
    space by default or as the paper's literal loop; each pair with its Coulomb
    coefficient (:meth:`contact.scene.Scene.friction`).
 
-:class:`GraspRun` keeps what lasts across frames: the ball is factored once per scene
-(again only when a joint turns it), the hand once per pose, the previous pose
+:class:`GraspRun` keeps what lasts across frames: each object (the ball too) is factored
+once per scene (again only when its placement turns it), the hand once per pose, the previous pose
 warm-starts the next, and friction's stick anchors of the last frame solved are where the
 next frame's slip is measured from. Frames must therefore be solved in time order when
-the scene has friction. At the scene's start it warns of a ball placed inside the skin
-or a plane (:func:`contact.startchecks.warn_overlaps`). Writing the results is the caller's
-(:mod:`contact.grasp`).
+the scene has friction. At the scene's start it warns of an object placed inside the
+skin, a plane or another object (:func:`contact.startchecks.warn_overlaps`). Writing
+the results is the caller's (:mod:`contact.grasp`).
 """
 
 from __future__ import annotations
