@@ -1,9 +1,9 @@
 """A body other than the hand as a run places it, frame by frame: the ball or an ``[[object]]``.
 
 A :class:`SceneObject` holds what lasts across frames (its mesh at the scene placement,
-its material, the faces that can touch, its own loads) and what its placement adds at
-each frame: the joint it follows, the turn it has rolled (:mod:`contact.rolling`), its
-weight and external load. :meth:`SceneObject.body` gives the placed
+its material, the faces that can touch, its own loads) and what each frame adds: the
+joint it follows, its weight and external load (the run adds the turn it has rolled,
+:mod:`contact.rolling`). :meth:`SceneObject.body` gives the placed
 :class:`~contact.solver.body.ElasticBody`, factored once and again only when the
 placement turns it (a translation shares the factorisation). A ``fixed`` object is
 rigid and held by the world: every node prescribed, its reactions the contact forces.
