@@ -1,8 +1,9 @@
 """The whole scene: its tables, the friction of each interface, its echo for ``summary.json``.
 
-Coulomb friction is given per body: ``friction`` on a plane, on the hand and on the ball.
-An interface takes its master's coefficient where the master's table gives one, else the
-ball's (:meth:`Scene.friction`), the same both ways across one interface.
+Coulomb friction is given per body: ``friction`` on a plane, on the hand, on the ball and
+on each ``[[object]]``. An interface with a plane or the hand takes that body's
+coefficient where its table gives one, else the object's; between two objects, the first
+one's, else the other's (:meth:`Scene.friction`); the same both ways across one interface.
 """
 
 from __future__ import annotations
