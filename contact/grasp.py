@@ -85,6 +85,17 @@ class _Terminated(BaseException):
     """SIGTERM, raised where the run is, so that it unwinds as Ctrl-C does."""
 
 
+#: SIGTERMs received: the handler's exception is lost where it lands in a callback whose
+#: exceptions Python ignores (a weakref's, a ``__del__``), so frames check this too.
+_SIGNALLED: list[int] = []
+
+
+def _check_terminated() -> None:
+    """Raise :class:`_Terminated` where a SIGTERM came and its exception was swallowed."""
+    if _SIGNALLED:
+        raise _Terminated
+
+
 def _version() -> str:
     try:
         from importlib.metadata import version
@@ -189,6 +200,7 @@ def run(
                 "bone_names": run_.hand.skeleton.bone_names,
             }
         for i in solved:
+            _check_terminated()
             t = times[i]
             t0 = time.perf_counter()
             bar.set_description(f"t = {t:g}")
@@ -231,6 +243,7 @@ def run(
             bar.update(1)
         if least:
             found = _least_grip(run_, times, results, bar, quiet)
+        _check_terminated()
         writer.finish(scene.echo(), versions=versions())
         if found is not None:
             summary.add_least_grip(directory / "summary.json", found)
@@ -414,8 +427,10 @@ def _catch_sigterm() -> object:
     """Make SIGTERM raise :class:`_Terminated`; the handler before, or None (not main thread)."""
 
     def handler(signum: int, frame: object) -> None:
+        _SIGNALLED.append(signum)
         raise _Terminated
 
+    _SIGNALLED.clear()
     try:
         return signal.signal(signal.SIGTERM, handler)
     except ValueError:  # not the main thread

@@ -148,3 +148,26 @@ def test_a_signal_leaves_the_previous_results(tmp_path, sig, code):
     assert err.strip() == "interrupted; the previous results are untouched"
     assert (out / "summary.json").read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["results", "scene.toml"]
+
+
+def test_a_sigterm_whose_exception_was_swallowed_still_stops_the_run(
+    tmp_path, capsys, monkeypatch
+):
+    # a SIGTERM that lands in a callback whose exceptions Python ignores (a weakref's) leaves
+    # only its mark: the next frame stops the run all the same, the previous results kept
+    from contact.run import GraspRun
+
+    path, out = scene(tmp_path)
+    assert main([str(path), "--quiet"]) == 0
+    before = (out / "summary.json").read_bytes()
+    frame = GraspRun.frame
+
+    def frame_then_signal(self, *args, **kwargs):
+        result = frame(self, *args, **kwargs)
+        contact.grasp._SIGNALLED.append(signal.SIGTERM)  # the handler ran; its raise was lost
+        return result
+
+    monkeypatch.setattr(GraspRun, "frame", frame_then_signal)
+    assert main([str(path), "--quiet"]) == 143
+    assert capsys.readouterr().err.strip() == "interrupted; the previous results are untouched"
+    assert (out / "summary.json").read_bytes() == before
