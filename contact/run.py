@@ -444,8 +444,7 @@ class GraspRun:
         extra: dict = {}
         if self.hand is not None:
             hand = self.hand_body(angles)
-            for o in objects:
-                check_bones(self.hand, self._pose, o, t)  # type: ignore[arg-type]
+            check_bones(self.hand, self._pose, objects, t)  # type: ignore[arg-type]
             bodies.append(hand)
             for o in objects:
                 mu = sc.friction("hand", o.name)

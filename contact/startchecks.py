@@ -21,31 +21,37 @@ __all__ = ["check_bones", "warn_overlaps"]
 log = logging.getLogger(__name__)
 
 
-def check_bones(hand: Hand, pose: Pose, ball: ElasticBody, t: float) -> None:
+def check_bones(hand: Hand, pose: Pose, objects: Sequence[ElasticBody], t: float) -> None:
     """Refuse an object that starts inside a bone of the posed hand: no contact resolves it.
 
     Its contact nodes inside a bone's closed surface (winding number), for the ball and
-    any ``[[object]]`` alike.
+    any ``[[object]]`` alike; a bone's surface is built only where some object's nodes lie
+    in its bounding box.
 
     Raises
     ------
     InputError
-        Naming the frame and the bone.
+        Naming the frame, the object and the bone.
     """
-    x = ball.mesh.points[ball.contact_nodes]
+    xs = [o.mesh.points[o.contact_nodes] for o in objects]
     for name, surf in hand.bones.items():
         tf = pose.transforms[name]
         pts = np.asarray(surf.points) @ tf[:3, :3].T + tf[:3, 3]
-        tri = np.asarray(surf.faces).reshape(-1, 4)[:, 1:]
-        s = TriangleSurface(pts, tri, name=f"bone {name}")
         lo, hi = pts.min(axis=0), pts.max(axis=0)
-        near = np.all((x >= lo) & (x <= hi), axis=1)
-        if near.any() and (s.winding_number(x[near]) > 0.5).any():
-            what = "the ball" if ball.name == "ball" else f"object {ball.name!r}"
-            raise InputError(
-                f"frame t = {t:g}: {what} starts inside bone {name}: place {what} "
-                "or close the hand less"
-            )
+        s = None
+        for o, x in zip(objects, xs, strict=True):
+            near = np.all((x >= lo) & (x <= hi), axis=1)
+            if not near.any():
+                continue
+            if s is None:
+                tri = np.asarray(surf.faces).reshape(-1, 4)[:, 1:]
+                s = TriangleSurface(pts, tri, name=f"bone {name}")
+            if (s.winding_number(x[near]) > 0.5).any():
+                what = "the ball" if o.name == "ball" else f"object {o.name!r}"
+                raise InputError(
+                    f"frame t = {t:g}: {what} starts inside bone {name}: place {what} "
+                    "or close the hand less"
+                )
 
 
 def warn_overlaps(

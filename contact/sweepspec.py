@@ -208,13 +208,12 @@ def load_sweep(path: str | Path) -> Sweep:
 
 def _absolute(doc: dict, folder: Path) -> None:
     """Make the scene's file paths absolute: they were relative to ``folder``."""
-    for table, key in _PATH_KEYS:
-        t = doc.get(table)
+    objects = doc.get("object")
+    tables = [(doc.get(table), key) for table, key in _PATH_KEYS]
+    tables += [(t, "mesh") for t in objects] if isinstance(objects, list) else []
+    for t, key in tables:
         if isinstance(t, dict) and isinstance(t.get(key), str):
             t[key] = str((folder / Path(t[key]).expanduser()).resolve())
-    for t in doc.get("object", []) if isinstance(doc.get("object"), list) else []:
-        if isinstance(t, dict) and isinstance(t.get("mesh"), str):  # [[object]] mesh files
-            t["mesh"] = str((folder / Path(t["mesh"]).expanduser()).resolve())
 
 
 def expand(sweep: Sweep, results: Path | None = None) -> list[SweepRun]:

@@ -329,6 +329,7 @@ def test_an_object_follows_its_joint_as_the_ball_does(tmp_path: Path) -> None:
     run = GraspRun(load_scene(path))
     (peg,) = run.objects
     assert not peg.rolls and peg.follow is not None
+    assert peg.faces is peg.mesh.boundary  # every boundary face of an object can touch
     assert np.allclose(run.placement(peg, 0.0), np.eye(4))
     moved = run.placement(peg, 1.0)
     assoc = ObjectAssociation("peg", "index_mcp", 0.0, 1.0)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .meshing import boundary_triangles, mesh_object, object_faces, read_surface
+from .meshing import mesh_object, read_surface
 from .placed import SceneObject, from_ball, from_scene, object_pairs
 from .surface import (
     DEGENERATE_AREA,
@@ -18,12 +18,10 @@ __all__ = [
     "MAX_EXTENT",
     "MIN_EXTENT",
     "SceneObject",
-    "boundary_triangles",
     "check_object_surface",
     "from_ball",
     "from_scene",
     "mesh_object",
-    "object_faces",
     "object_pairs",
     "read_surface",
 ]

@@ -25,11 +25,12 @@ import fem
 
 from ..errors import ObjectError
 from ..geometry import enclosed_volume
+from ..geometry.triangles import surface_of_mesh
 from ..scene import sizing
 from .cache import cached
 from .surface import check_object_surface
 
-__all__ = ["boundary_triangles", "mesh_object", "object_faces", "read_surface"]
+__all__ = ["mesh_object", "read_surface"]
 
 log = logging.getLogger(__name__)
 
@@ -81,21 +82,6 @@ def read_surface(
         raise ObjectError(f"{prefix}holds no triangles or polygons")
     poly = data.triangulate()
     return np.asarray(poly.points, np.float64), np.asarray(poly.regular_faces, np.int64)
-
-
-def boundary_triangles(mesh: fem.Mesh) -> NDArray[np.int64]:
-    """The mesh's boundary faces as triangles, outward (each quad split along 0-2)."""
-    faces = mesh.boundary.faces
-    parts = [faces.get("triangle", np.zeros((0, 3), np.int64))]
-    if "quad" in faces:
-        q = faces["quad"]
-        parts += [q[:, [0, 1, 2]], q[:, [0, 2, 3]]]
-    return np.concatenate(parts).astype(np.int64)
-
-
-def object_faces(mesh: fem.Mesh) -> fem.BoundaryFaces:
-    """The faces of a solid object that can touch: every boundary face, outward."""
-    return mesh.boundary
 
 
 def _read_volume(path: Path, prefix: str) -> tuple[fem.Mesh | None, str | None]:
@@ -188,7 +174,7 @@ def mesh_object(
     mesh, unread = _read_volume(path, prefix)
     if mesh is not None:
         try:
-            tri = boundary_triangles(mesh)
+            tri = surface_of_mesh(mesh)[1]
         except fem.MeshError as exc:
             raise ObjectError(f"{prefix}{exc}") from None
         check_object_surface(mesh.points, tri, path, where=where)

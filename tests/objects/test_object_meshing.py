@@ -11,7 +11,8 @@ import pytest
 
 import fem
 from contact.errors import ObjectError
-from contact.objects import boundary_triangles, mesh_object, object_faces
+from contact.geometry.triangles import surface_of_mesh
+from contact.objects import mesh_object
 from meshes.objects.make import OBJECTS_DIR, cube_surface
 
 EDGE = 0.04
@@ -33,7 +34,6 @@ def test_cube_filled(filled_cube):
     assert set(mesh.cells) == {"tetra"}
     assert mesh.volume == pytest.approx(EDGE**3, rel=0.01)
     assert np.ptp(mesh.points, axis=0) == pytest.approx([EDGE] * 3, rel=1e-6)
-    assert object_faces(mesh) is mesh.boundary
 
 
 def test_cylinder_filled(tmp_path):
@@ -55,7 +55,7 @@ def test_volume_mesh_used_as_it_is(filled_cube, tmp_path):
     assert again.n_cells == mesh.n_cells
     np.testing.assert_allclose(again.points, mesh.points)
     assert again.volume == pytest.approx(mesh.volume, rel=1e-12)
-    tri = boundary_triangles(again)
+    tri = surface_of_mesh(again)[1]
     assert len(tri) == mesh.boundary.n_faces
 
 
