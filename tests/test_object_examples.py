@@ -28,3 +28,20 @@ def test_the_example_holds_its_object_at_every_frame(tmp_path: Path, name: str) 
     (support,) = last["obstacle_forces"].values()  # the table (the can's stand)
     assert np.linalg.norm(support["force"]) == 0.0 and last["grip_force"] > 0
     assert (out / f"{name}.pvd").is_file()
+
+
+@pytest.mark.slow
+def test_the_cube_near_its_slip_limit_ends_every_frame_with_a_verdict(tmp_path: Path) -> None:
+    """At mu 0.3 on the pads (the example has 0.8) every frame settles: held or not held."""
+    text = (ROOT / "examples" / "cube.toml").read_text()
+    text = text.replace('"../meshes/', f'"{ROOT.as_posix()}/meshes/')
+    assert "friction = 0.8 " in text
+    scene = tmp_path / "cube.toml"
+    scene.write_text(text.replace("friction = 0.8 ", "friction = 0.3 ", 1))
+    out = tmp_path / "out"
+    main([str(scene), "--quiet", "--no-pictures", "--out", str(out)])
+    frames = json.loads((out / "summary.json").read_text())["frames"]
+    assert len(frames) == 4
+    for f in frames:
+        assert f["converged"] or f["stop_reason"].startswith("not held"), f["stop_reason"]
+        assert f["friction"]["residual"] <= f["friction"]["tolerance"] or not f["converged"]

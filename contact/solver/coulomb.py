@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .delassus import ContactSpace, held_by_springs
+from .delassus import SPRING, ContactSpace
 from .fields import FrictionState
 from .friction import FRICTION_TOLERANCE, SLIP, STICK, FrictionResult, solve_friction
 from .results import FrictionReport
@@ -144,21 +144,21 @@ class Slip:
 def unheld(frame, space: ContactSpace, friction: Friction, rows: ContactRows) -> Slip | None:
     """The slip of a free body the last solve found no balance for, else None.
 
-    Called when the frictional solve did not settle. The same contacts are solved with each
-    free body held by a soft spring in its rigid modes (`held_by_springs`), a problem that
-    always has a solution: where the body is held the spring carries almost nothing, where
-    it is not the spring carries the load the contacts could not. The message names the
-    body, that load (N) and the way it slips, or the moment (N m) and the axis it turns
-    about where only a moment is left, and the friction available (the sum of ``mu N``
-    over its contacts).
+    Called when the frictional solve did not settle. The same contacts are solved with
+    each free body held by a soft spring in its rigid modes (``SPRING`` of
+    :mod:`contact.solver.delassus`), a problem that always has a solution: where the body
+    is held the spring carries almost nothing, where it is not the spring carries the load
+    the contacts could not. The message names the body, that load (N) and the way it
+    slips, or the moment (N m) and the axis it turns about where only a moment is left,
+    and the friction available (the sum of ``mu N`` over its contacts).
     """
     sys_, mu, tangent = friction.system
     g, c = sys_.g, sys_.c
     if not g.shape[1]:
         return None
-    w, rhs, _ = held_by_springs(sys_)
     res = solve_friction(
-        w, np.zeros((w.shape[0], 0)), rhs, np.zeros(0), mu=mu, tangent=tangent
+        sys_.w, g, sys_.rhs, c, mu=mu, tangent=tangent, load_scale=sys_.load_scale,
+        spring=SPRING,
     )
     if not res.solved:  # no answer to read the load not carried from
         return None

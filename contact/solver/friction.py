@@ -19,21 +19,21 @@ is written as the root of the Alart-Curnier natural map (Alart and Curnier 1991)
     F_p = lambda_p - max(0, xi)
     F_t = lambda_t - proj_{|.| <= mu max(0, xi)}(z)
 
-and solved by a semismooth Newton method: each step is the primal-dual active set of
-Hueber, Stadler and Wohlmuth (2008) (open, stick and slip contacts read off ``xi`` and
-``z``), with their slip derivative, then a backtracking line search on ``|F|^2``.
-``c_p`` and ``c_t`` are the inverse diagonal compliances, which makes every residual a
-force. Where the active sets cycle, it starts again with another multiple of them, then
-tries a fixed point of Tresca problems (the radii ``mu N`` of the last normal forces)
-finished by Coulomb's, then other multiples with and without a line search
-(:data:`PHASES`).
+(:mod:`contact.solver.natural_map`) and solved by a semismooth Newton method: each step
+is the primal-dual active set of Hueber, Stadler and Wohlmuth (2008) (open, stick and
+slip contacts read off ``xi`` and ``z``). ``c_p`` and ``c_t`` are the inverse diagonal
+compliances, which makes every residual a force. The first steps take the slip's exact
+derivative with a backtracking line search on ``|F|^2``; where the active sets cycle it
+starts again with another multiple of ``c_p, c_t`` or the derivative of Hueber, Stadler
+and Wohlmuth, then tries a fixed point of Tresca problems (the radii ``mu N`` of the
+last normal forces) finished by Coulomb's, and last a continuation in springs that hold
+the free bodies (:data:`PHASES`).
 Where ``mu = 0`` everywhere the frictionless LCP (:mod:`contact.solver.lcp`) is used
 instead.
 """
 
 from __future__ import annotations
 
-import copy
 import warnings
 from dataclasses import dataclass
 
@@ -44,6 +44,7 @@ from numpy.typing import NDArray
 from fem.threads import dense_threads
 
 from .delassus import TOUCHING
+from .natural_map import NaturalMap
 
 __all__ = ["FRICTION_TOLERANCE", "FrictionResult", "solve_friction"]
 
@@ -57,19 +58,32 @@ STALL = 10
 #: Newton steps a strategy may take.
 TRY_STEPS = 40
 #: The strategies tried in turn from the same start, each a factor on the augmentation
-#: ``c_p, c_t`` (the inverse diagonal compliances) and whether steps are searched along
-#: (a backtracking line search on ``|F|^2``) or taken whole: the natural map's roots do
-#: not depend on them, the active sets the steps visit do.
-STRATEGIES = ((1.0, False), (0.3, False), (0.1, False), (3.0, False), (1.0, True), (0.3, True))
-#: The order the solve tries them in, with the fixed point of Tresca problems (the radii
-#: ``mu N`` of the last normal forces) after the first two.
-PHASES = (*STRATEGIES[:2], "tresca", *STRATEGIES[2:])
+#: ``c_p, c_t`` (the inverse diagonal compliances) and how a step is taken: ``"exact"``,
+#: the slip's exact derivative and a backtracking line search on ``|F|^2`` (its
+#: directions descend); ``"whole"``, Hueber, Stadler and Wohlmuth's derivative and whole
+#: steps; ``"search"``, theirs searched along. The natural map's roots do not depend on
+#: them, the active sets the steps visit do.
+STRATEGIES = (
+    (1.0, "exact"),
+    (0.3, "exact"),
+    (1.0, "whole"),
+    (0.3, "whole"),
+    (0.1, "whole"),
+    (3.0, "whole"),
+    (1.0, "search"),
+    (0.3, "search"),
+)
+#: The order the solve tries them in: the whole-step strategies, then the fixed point of
+#: Tresca problems (the radii ``mu N`` of the last normal forces), then the searched
+#: ones, then the continuation in springs on the free bodies (:func:`_springs`).
+PHASES = (*STRATEGIES[:6], "tresca", *STRATEGIES[6:], "springs")
+#: The continuation's springs on the free bodies, in the contacts' stiffness seen in
+#: their modes: from stiff ones that carry every load (a problem any start solves) to
+#: soft ones whose solution is the unsprung one's where the contacts hold the bodies.
+SPRINGS = (1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6)
 #: Newton steps that polish a solve past the tolerance, towards :data:`POLISH_TOL`.
 POLISH = 3
 POLISH_TOL = 1e-14
-#: A contact's tangential compliance block below this fraction of the largest diagonal
-#: is taken as held both ways (no friction there).
-DEGENERATE = 1e-10
 #: The shift, over the largest Jacobian entry, of a singular Newton system.
 SHIFT = 1e-10
 #: Tresca solves of the fixed point (each with the radii of the last normal forces).
@@ -108,132 +122,6 @@ class FrictionResult:
     iterations: int
     residual: float
     solved: bool
-
-
-class _Problem:
-    """The natural map of one contact set and its generalised Jacobian."""
-
-    def __init__(self, w, g, rhs, c, mu, tangent) -> None:
-        self.fixed: NDArray | None = None  # Tresca: each frictional contact's radius
-        self.w, self.g, self.rhs, self.c = w, g, rhs, c
-        self.wg = np.hstack([w, g])  # the rows' values per unknown: d y / d(lam, a)
-        self.k = mu.size
-        self.m, self.r = g.shape
-        self.fr = np.flatnonzero(tangent[:, 0] >= 0)  # contacts with friction
-        self.t = tangent[self.fr]  # (kf, 2) their tangential rows
-        d = np.diag(w).copy()
-        floor = 1e-12 * max(float(d.max(initial=0.0)), 1e-300)
-        # a contact whose tangential rows no body can move along (a node on a symmetry
-        # plane: both bodies held across it) takes no friction: its rows stay at zero
-        self.mu = mu.copy()
-        if self.fr.size:
-            tt = w[self.t[:, :, None], self.t[:, None, :]]  # (kf, 2, 2)
-            least = np.linalg.eigvalsh(tt)[:, 0]
-            self.mu[self.fr[least <= DEGENERATE * max(float(d.max()), 1e-300)]] = 0.0
-        self.cp = 1.0 / np.maximum(d[: self.k], floor)
-        dt = d[self.t].mean(axis=1) if self.fr.size else np.zeros(0)
-        self.ct = 1.0 / np.maximum(dt, floor)
-
-    def scaled(self, factor: float, fixed: NDArray | None = None) -> _Problem:
-        """The same problem with its augmentation ``c_p, c_t`` times ``factor``.
-
-        With ``fixed``, Tresca's law instead: each frictional contact's radius is given
-        (where it is closed).
-        """
-        out = copy.copy(self)
-        out.cp = self.cp * factor
-        out.ct = self.ct * factor
-        out.fixed = fixed
-        return out
-
-    def values(self, lam: NDArray, a: NDArray) -> NDArray:
-        return self.w @ lam + self.g @ a - self.rhs
-
-    def residual(self, lam: NDArray, a: NDArray) -> tuple[NDArray, dict]:
-        """``F`` (M + r) and what its Jacobian needs."""
-        k, fr, t = self.k, self.fr, self.t
-        y = self.values(lam, a)
-        xi = lam[:k] - self.cp * y[:k]
-        closed = xi > 0
-        f = np.empty(self.m + self.r)
-        f[:k] = np.where(closed, self.cp * y[:k], lam[:k])
-        if self.fixed is None:
-            radius = self.mu[fr] * np.maximum(xi[fr], 0.0)
-        else:
-            radius = np.where(closed[fr], self.fixed, 0.0)
-        lt = lam[t]  # (kf, 2)
-        z = lt - self.ct[:, None] * y[t]
-        nz = np.linalg.norm(z, axis=1)
-        stick = (nz <= radius) & (radius > 0)
-        q = z / np.maximum(nz, 1e-300)[:, None]
-        ft = np.where(stick[:, None], self.ct[:, None] * y[t], lt - radius[:, None] * q)
-        f[t.ravel()] = ft.ravel()
-        # rows of the system that belong to no contact's normal or tangent: none
-        f[self.m :] = self.g.T @ lam - self.c
-        return f, {
-            "closed": closed,
-            "stick": stick,
-            "q": q,
-            "nz": nz,
-            "radius": radius,
-            "y": y,
-            "lt": lt,
-        }
-
-    def inactive(self, s: dict) -> NDArray[np.bool_]:
-        """The unknowns whose rows of ``F`` are their own value (open contacts' forces)."""
-        out = np.zeros(self.m + self.r, dtype=bool)
-        out[: self.k] = ~s["closed"]
-        free = ~s["stick"] & (s["radius"] <= 0)
-        out[self.t[free].ravel()] = True
-        return out
-
-    def jacobian(self, s: dict) -> NDArray:
-        k, m, r, fr, t = self.k, self.m, self.r, self.fr, self.t
-        n = m + r
-        j = np.zeros((n, n))
-        wg = self.wg  # (m, n): d y / d(lam, a)
-        closed = s["closed"]
-        rows = np.arange(k)
-        j[rows[closed], :] = self.cp[closed, None] * wg[rows[closed]]
-        j[rows[~closed], rows[~closed]] = 1.0
-        stick, q, nz, radius = s["stick"], s["q"], s["nz"], s["radius"]
-        if fr.size:
-            # stick: the tangential rows close, c_t s = 0
-            st = np.flatnonzero(stick)
-            j[t[st].ravel(), :] = (self.ct[st, None, None] * wg[t[st]]).reshape(-1, n)
-            # open (radius 0): F_t = lam_t
-            op = np.flatnonzero(~stick & (radius <= 0))
-            j[t[op, 0], t[op, 0]] = 1.0
-            j[t[op, 1], t[op, 1]] = 1.0
-            # slip: d F_t = d lam_t - mu q d xi + A d z, d z = d lam_t - c_t d s, with
-            # A = (cone q^T - r I) / |z| (Hueber, Stadler and Wohlmuth's slip derivative:
-            # the exact one has r q q^T where this has the force projected on the cone;
-            # they agree at a solution, lam_t = r q, and this one does not stall)
-            sl = np.flatnonzero(~stick & (radius > 0))
-            if sl.size:
-                ts, ps, qs = t[sl], fr[sl], q[sl]
-                lt = s["lt"][sl]
-                size = np.linalg.norm(lt, axis=1)
-                big = size > radius[sl]
-                shrink = np.ones(sl.size)
-                shrink[big] = radius[sl][big] / size[big]
-                cone = lt * shrink[:, None]
-                amat = cone[:, :, None] * qs[:, None, :] - radius[sl, None, None] * np.eye(2)
-                amat /= nz[sl, None, None]
-                mu = self.mu[ps] if self.fixed is None else np.zeros(sl.size)
-                blk = -self.ct[sl, None, None] * np.einsum("cij,cjn->cin", amat, wg[ts])
-                blk += (mu * self.cp[ps])[:, None, None] * qs[:, :, None] * wg[ps][:, None, :]
-                rows = ts.ravel()
-                j[rows, :] = blk.reshape(-1, n)
-                eye = np.eye(2) + amat  # d lam_t (1 + A)
-                for a_ in range(2):
-                    for b_ in range(2):
-                        j[ts[:, a_], ts[:, b_]] += eye[:, a_, b_]
-                j[ts[:, 0], ps] -= mu * qs[:, 0]
-                j[ts[:, 1], ps] -= mu * qs[:, 1]
-        j[m:, :m] = self.g.T
-        return j
 
 
 def _relative(f: NDArray, lam: NDArray, scale: float) -> float:
@@ -294,6 +182,7 @@ def solve_friction(
     load_scale: float = 0.0,
     tol: float = FRICTION_TOLERANCE,
     max_steps: int = MAX_NEWTON,
+    spring: float = 0.0,
 ) -> FrictionResult:
     """Solve the frictional contact problem of a contact set (see the module docstring).
 
@@ -320,6 +209,10 @@ def solve_friction(
         Residual to reach, relative to the force scale.
     max_steps : int
         Newton steps before giving up.
+    spring : float
+        Hold every free body by a spring of this stiffness in its modes, in the contacts'
+        stiffness seen there (``mean |G_i|^2 / mean W_ii``): its balance row reads
+        ``G^T lambda - c = spring a``, what the contacts do not carry.
 
     Returns
     -------
@@ -337,11 +230,16 @@ def solve_friction(
             load_scale,
             tol,
             max_steps,
+            spring,
         )
 
 
-def _newton(w, g, rhs, c, mu, tangent, start, load_scale, tol, max_steps) -> FrictionResult:
-    base = _Problem(w, g, rhs, c, mu, tangent)
+def _newton(
+    w, g, rhs, c, mu, tangent, start, load_scale, tol, max_steps, spring
+) -> FrictionResult:
+    base = NaturalMap(w, g, rhs, c, mu, tangent)
+    if spring:
+        base = base.scaled(1.0, spring=spring)
     m, k = base.m, base.k
     lam = np.zeros(m) if start is None else np.asarray(start, float).copy()
     lam[:k] = np.maximum(lam[:k], 0.0)
@@ -364,15 +262,19 @@ def _newton(w, g, rhs, c, mu, tangent, start, load_scale, tol, max_steps) -> Fri
     for phase in PHASES:
         if best[0] <= tol or steps >= max_steps:
             break
-        if phase == "tresca":
+        if phase == "springs":
+            if not base.r:
+                continue
+            x, n = _springs(base, best, scale, tol, max_steps - steps)
+        elif phase == "tresca":
             if not base.fr.size:
                 continue
             # Tresca's law with the radii of the last normal forces, in turn, until the
             # normal forces settle; then Coulomb's from there
             x, n = _tresca(base, best, measure, tol, max_steps - steps)
         else:
-            factor, search = phase
-            x, n = _descend(base.scaled(factor), lam, a, measure, tol, search, max_steps - steps)
+            factor, mode = phase
+            x, n = _descend(base.scaled(factor), lam, a, measure, tol, mode, max_steps - steps)
         steps += n
         if x[0] < best[0]:
             best = x
@@ -402,7 +304,7 @@ def _newton(w, g, rhs, c, mu, tangent, start, load_scale, tol, max_steps) -> Fri
     )
 
 
-def _placed(base: _Problem, lam: NDArray) -> NDArray:
+def _placed(base: NaturalMap, lam: NDArray) -> NDArray:
     """Free bodies' amplitudes that best close the rows pushing under ``lam``."""
     if not base.r:
         return np.zeros(0)
@@ -413,14 +315,16 @@ def _placed(base: _Problem, lam: NDArray) -> NDArray:
     return np.linalg.lstsq(base.g[rows], (base.rhs - base.w @ lam)[rows], rcond=None)[0]
 
 
-def _descend(prob: _Problem, lam, a, measure, tol, search: bool, budget: int):
+def _descend(prob: NaturalMap, lam, a, measure, tol, mode: str, budget: int):
     """Newton steps on ``prob`` from ``(lam, a)``: the best ``(residual, lam, a)`` and the steps.
 
     Stops at ``tol``, after :data:`TRY_STEPS` steps, or where the residual has not halved
-    in :data:`STALL` steps (active sets that cycle). ``search``: a backtracking line
-    search on ``|F|^2`` (otherwise full steps).
+    in :data:`STALL` steps (active sets that cycle). ``mode``: how a step is taken (see
+    :data:`STRATEGIES`).
     """
     m = prob.m
+    search = mode != "whole"
+    prob = prob.scaled(1.0, prob.fixed, exact=mode == "exact")
     f, s = prob.residual(lam, a)
     best = (measure(lam, a), lam, a)
     trail = [best[0]]
@@ -450,7 +354,7 @@ def _descend(prob: _Problem, lam, a, measure, tol, search: bool, budget: int):
     return best, n
 
 
-def _tresca(base: _Problem, best, measure, tol, budget: int):
+def _tresca(base: NaturalMap, best, measure, tol, budget: int):
     """Tresca solves with the radii ``mu N`` of the last normal forces until they settle."""
     k = base.k
     _, lam, a = best
@@ -477,11 +381,43 @@ def _tresca(base: _Problem, best, measure, tol, budget: int):
     return x, n + used
 
 
-def _strategies(base: _Problem, fixed, lam, a, measure, tol, budget: int):
+def _springs(base: NaturalMap, best, scale: float, tol, budget: int):
+    """Continuation in the free bodies' springs (:data:`SPRINGS`) down to ``base``'s own.
+
+    Each sprung problem starts from the last one's solution, close to its own: a path of
+    short Newton solves where one from afar cycles. The best ``(residual, lam, a)`` of
+    ``base`` and the steps.
+    """
+    _, lam, a = best
+    n = 0
+    for spring in SPRINGS:
+        prob = base.scaled(1.0, base.fixed, spring=spring)
+        if prob.spring <= base.spring:
+            break
+
+        def own(lam: NDArray, a: NDArray, prob=prob) -> float:
+            f, _ = prob.residual(lam, a)
+            return _relative(f, lam, scale)
+
+        x, used = _strategies(prob, prob.fixed, lam, a, own, tol, budget - n)
+        n += used
+        lam, a = x[1], x[2]
+        if n >= budget:
+            break
+
+    def measure(lam: NDArray, a: NDArray) -> float:
+        f, _ = base.residual(lam, a)
+        return _relative(f, lam, scale)
+
+    x, used = _strategies(base, base.fixed, lam, a, measure, tol, budget - n)
+    return x, n + used
+
+
+def _strategies(base: NaturalMap, fixed, lam, a, measure, tol, budget: int):
     """:data:`STRATEGIES` in turn from ``(lam, a)`` until one reaches ``tol``: its result."""
     n = 0
-    for factor, search in STRATEGIES:
-        x, used = _descend(base.scaled(factor, fixed), lam, a, measure, tol, search, budget - n)
+    for factor, mode in STRATEGIES:
+        x, used = _descend(base.scaled(factor, fixed), lam, a, measure, tol, mode, budget - n)
         n += used
         if x[0] <= tol or n >= budget:
             break
