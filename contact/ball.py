@@ -36,6 +36,7 @@ __all__ = [
     "BallError",
     "BallSpec",
     "make_ball",
+    "nodal_pressure",
 ]
 
 #: Boundary nodes of a ball read from a file must lie within this fraction of the radius
@@ -52,6 +53,34 @@ LOCKING_NOTE = (
     "they lock as nu nears 1/2 and come out too stiff (on Lame's thick sphere 7 % at "
     "nu = 0.45, 16 % at 0.49)"
 )
+
+
+def nodal_pressure(
+    tets: bool,
+    nu: float,
+    asked: bool | None,
+    where: str,
+    remedy: str = "averaged nodal pressures (the default) do not lock",
+) -> bool:
+    """Whether a body takes averaged nodal pressures: on tetrahedra whose ``nu`` would lock.
+
+    ``asked`` is the scene's ``nodal_pressure`` (None: not given, then chosen by ``nu``).
+    Refused on linear tetrahedra above :data:`LOCKING_NU`: a warning that they lock,
+    naming the keys under ``where`` (``"ball.material"``, ``"hand.flesh"``...) and the
+    ``remedy``.
+    """
+    if asked is None:
+        return tets and nu > LOCKING_NU
+    if not asked and tets and nu > LOCKING_NU:
+        table = where.rsplit(".", 1)[0]
+        warnings.warn(
+            f"{where}.nu = {nu:g} on linear tetrahedra with {table}.nodal_pressure = false: "
+            f"{LOCKING_NOTE}; {remedy}",
+            stacklevel=3,
+        )
+    return bool(asked)
+
+
 #: The largest external force (N) ``ball.load`` may give, and the scene's bound on any force
 #: (:data:`contact.scene.model.MAX_FORCE`): far above a grip.
 MAX_LOAD_FORCE = 1.0e4
@@ -384,21 +413,17 @@ def make_ball(spec: BallSpec) -> Ball:
         _check_file(mesh, spec, path)
     else:
         mesh = _generate(spec)
-    tets = "tetra" in mesh.cells
-    nodal = spec.nodal_pressure
-    if nodal is None:
-        nodal = tets and spec.nu > LOCKING_NU
-        if nodal:
-            log.info(
-                "ball: nu = %g on linear tetrahedra: averaged nodal pressures (no locking)",
-                spec.nu,
-            )
-    elif not nodal and tets and spec.nu > LOCKING_NU:
-        warnings.warn(
-            f"ball.material.nu = {spec.nu:g} on linear tetrahedra with ball.nodal_pressure "
-            f"= false: {LOCKING_NOTE}; averaged nodal pressures (the default) or element = "
-            '"hex" (B-bar bricks) do not lock',
-            stacklevel=2,
+    nodal = nodal_pressure(
+        "tetra" in mesh.cells,
+        spec.nu,
+        spec.nodal_pressure,
+        "ball.material",
+        'averaged nodal pressures (the default) or element = "hex" (B-bar bricks) do not '
+        "lock",
+    )
+    if nodal and spec.nodal_pressure is None:
+        log.info(
+            "ball: nu = %g on linear tetrahedra: averaged nodal pressures (no locking)", spec.nu
         )
     strain = spec.pressure_strain
     if strain > STRAIN_WARN:

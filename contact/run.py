@@ -25,7 +25,6 @@ from __future__ import annotations
 import dataclasses
 import logging
 import time
-import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -34,7 +33,7 @@ from numpy.typing import NDArray
 
 import fem
 
-from .ball import LOCKING_NOTE, LOCKING_NU, Ball, make_ball
+from .ball import Ball, make_ball, nodal_pressure
 from .fingerforce import FIRST_PRESS, Target, drive, finger_forces, guess, remember
 from .geometry.plane import Plane
 from .geometry.surfacequery import TriangleSurface
@@ -128,15 +127,9 @@ class GraspRun:
             self.flesh = hs.flesh.elastic()
             # the flesh is linear tetrahedra: averaged nodal pressures where they would
             # lock, as for a tet ball
-            nodal = hs.nodal_pressure
-            self.nodal_pressure = hs.flesh.nu > LOCKING_NU if nodal is None else nodal
-            if not self.nodal_pressure and hs.flesh.nu > LOCKING_NU:
-                warnings.warn(
-                    f"hand.flesh.nu = {hs.flesh.nu:g} on the flesh's linear tetrahedra with "
-                    f"hand.nodal_pressure = false: {LOCKING_NOTE}; averaged nodal pressures "
-                    "(the default) do not lock",
-                    stacklevel=2,
-                )
+            self.nodal_pressure = nodal_pressure(
+                True, hs.flesh.nu, hs.nodal_pressure, "hand.flesh"
+            )
             names = self.hand.skeleton.bone_names
             self.bones = {n: self.hand.bone_nodes(n) for n in names if self.hand.bone_nodes(n).size}
             self.limits = hs.limits(list(self.bones))

@@ -82,7 +82,7 @@ def test_nearly_incompressible_flesh_takes_nodal_pressures_or_warns_of_locking(t
         'resolution = "coarse"', 'resolution = "coarse"\nnodal_pressure = false'
     )
     (tmp_path / "p.toml").write_text(plain_text)
-    with pytest.warns(UserWarning, match=r"hand.flesh.nu = 0.49 on the flesh's linear tet"):
+    with pytest.warns(UserWarning, match=r"hand.flesh.nu = 0.49 on linear tet"):
         plain = GraspRun(load_scene(tmp_path / "p.toml"))
     body = plain.hand_body(plain.angles(0.0))
     assert not body.nodal_pressure

@@ -12,7 +12,6 @@ rigid and held by the world: every node prescribed, its reactions the contact fo
 from __future__ import annotations
 
 import logging
-import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -21,7 +20,7 @@ from numpy.typing import NDArray
 
 import fem
 
-from ..ball import LOCKING_NOTE, LOCKING_NU, Ball
+from ..ball import Ball, nodal_pressure
 from ..geometry.surfacequery import TriangleSurface, surface_of_mesh
 from ..hand.objects import ObjectAssociation
 from ..scene.model import Follow
@@ -159,23 +158,6 @@ def from_ball(ball: Ball, follow: Follow | None) -> SceneObject:
     )
 
 
-def nodal_pressure(mesh: fem.Mesh, nu: float, asked: bool | None, where: str) -> bool:
-    """Averaged nodal pressures for tetrahedra whose ``nu`` would lock, unless refused.
-
-    Refused (``asked`` False) on such tetrahedra: a warning that they lock.
-    """
-    tets = "tetra" in mesh.cells
-    if asked is None:
-        return tets and nu > LOCKING_NU
-    if not asked and tets and nu > LOCKING_NU:
-        warnings.warn(
-            f"{where}.material.nu = {nu:g} on linear tetrahedra with {where}.nodal_pressure "
-            f"= false: {LOCKING_NOTE}; averaged nodal pressures (the default) do not lock",
-            stacklevel=3,
-        )
-    return bool(asked)
-
-
 def from_scene(spec: ObjectScene, mesh: fem.Mesh, where: str) -> SceneObject:
     """An ``[[object]]`` from its table and its mesh in its own coordinates.
 
@@ -185,7 +167,9 @@ def from_scene(spec: ObjectScene, mesh: fem.Mesh, where: str) -> SceneObject:
     tf = spec.placement
     placed = fem.Mesh(mesh.points @ tf[:3, :3].T + tf[:3, 3], mesh.cells, mesh.regions)
     material = spec.elastic
-    nodal = nodal_pressure(placed, material.nu, spec.nodal_pressure, where)
+    nodal = nodal_pressure(
+        "tetra" in placed.cells, material.nu, spec.nodal_pressure, f"{where}.material"
+    )
     return SceneObject(
         spec.name,
         placed,
