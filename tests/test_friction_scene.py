@@ -114,13 +114,13 @@ def hand_scene(tmp_path: Path, ball: str = "", hand: str = "", left: str = "") -
 
 def test_defaults_frictionless(tmp_path: Path) -> None:
     scene = load_scene(hand_scene(tmp_path))
-    assert scene.ball_friction == 0.0 == Scene.ball_friction
+    assert scene.ball_friction is None and Scene.ball_friction is None
     assert scene.hand.friction is None and HandScene.friction is None
     assert scene.planes[0].friction is None and PlaneScene.friction is None
     assert scene.friction("hand") == scene.friction("table") == 0.0
     assert not scene.frictional
     echo = scene.echo()
-    assert echo["ball"]["friction"] == 0.0
+    assert echo["ball"]["friction"] is None
     assert echo["hand"]["friction"] is None and echo["plane"][0]["friction"] is None
 
 

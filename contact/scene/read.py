@@ -80,7 +80,7 @@ def _read_ball(
 ) -> tuple[BallSpec | None, dict | None, float | None]:
     """The ``[ball]`` table: a :class:`BallSpec` (which checks it), ``ball.follow``.
 
-    And ``ball.friction``, None where not given (:class:`Scene` holds its default and check).
+    And ``ball.friction``, None where not given (:class:`Scene` checks it).
     No ball (None) where the scene has ``[[object]]`` tables instead.
     """
     if "ball" not in data:
@@ -424,7 +424,6 @@ def load_scene(path: str | os.PathLike) -> Scene:
     objects = read_objects(r, data, base, skeleton, tuple(p.name for p in planes))
     solver = _read_solver(r, data)
     output = _read_output(r, data)
-    more = {} if ball_friction is None else {"ball_friction": ball_friction}
     return r.build(
         "",
         Scene,
@@ -440,5 +439,5 @@ def load_scene(path: str | os.PathLike) -> Scene:
         output=output,
         description=description,
         objects=objects,
-        **more,
+        ball_friction=ball_friction,
     )

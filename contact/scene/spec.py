@@ -43,9 +43,9 @@ class Scene:
     output : OutputScene
     description : str
         ``scene.description``.
-    ball_friction : float
-        ``ball.friction``: Coulomb's coefficient of the ball against a plane or the hand
-        that gives none, >= 0.
+    ball_friction : float or None
+        ``ball.friction``: Coulomb's coefficient of the ball against a plane, the hand or
+        an object that gives none, >= 0; None where not given (then 0).
     objects : tuple of ObjectScene
         The ``[[object]]`` tables, in file order.
 
@@ -67,7 +67,7 @@ class Scene:
     solver: SolverScene
     output: OutputScene
     description: str = ""
-    ball_friction: float = 0.0
+    ball_friction: float | None = None
     objects: tuple[ObjectScene, ...] = ()
 
     def __post_init__(self) -> None:
@@ -127,9 +127,9 @@ class Scene:
         list of (str, str, float)
             ``(body, key path, mu)`` for the planes in file order, then the hand, then the
             other objects. Against a plane or the hand: the body's own ``friction`` where its
-            table gives one (``plane[0].friction``), else the object's (``ball.friction``).
-            Between two objects: the one first in :attr:`object_names`'s where it gives one
-            (> 0 for the ball, whose default is 0), else the other's, else 0.
+            table gives one (``plane[0].friction``), else the object's (``ball.friction``),
+            else 0. Between two objects: the one first in :attr:`object_names`'s where it
+            gives one, else the other's, else 0.
         """
         obj = self.object_names[0] if obj is None else obj
         key, mine = self._own(obj)
@@ -143,14 +143,11 @@ class Scene:
             if other == obj:
                 continue
             k2, theirs = self._own(other)
-            first = (key, mine) if names.index(obj) < names.index(other) else (k2, theirs)
-            second = (k2, theirs) if first[0] == key else (key, mine)
-            if first[1] is not None and (first[1] > 0 or first[0] != "ball.friction"):
-                out.append((other, first[0], float(first[1])))
-            elif second[1] is not None:
-                out.append((other, second[0], float(second[1])))
-            else:
-                out.append((other, first[0], 0.0))
+            first, second = ((key, mine), (k2, theirs))
+            if names.index(other) < names.index(obj):
+                first, second = second, first
+            given = first if first[1] is not None else second
+            out.append((other, given[0], 0.0 if given[1] is None else float(given[1])))
         return out
 
     @property
