@@ -28,4 +28,5 @@ BENCHMARKS = (
     "sweep",
     "posing",
     "sfepy_hertz",
+    "sfepy_patch",
 )

@@ -34,6 +34,9 @@ the best of two (the machine is shared). Where our time is missed, a profile (cP
 a separate run) splits ours into assembly, factorisation and the rest of the contact
 iteration.
 
+The solve itself, :func:`solve_sfepy_press`, takes tetrahedra (``3_4``) as well as bricks:
+:mod:`benchmarks.sfepy_patch` runs it on graded tetrahedral octants.
+
 SfePy is an optional extra (``pip install .[benchmarks]``); without it the study writes a
 note and returns no rows.
 
@@ -60,6 +63,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+import fem
 from contact.cases.hertz import (
     ContactPatch,
     HertzCheck,
@@ -69,6 +73,8 @@ from contact.cases.hertz import (
     hertz_sphere_on_plane,
     measure_contact_patch,
 )
+from contact.geometry import Plane
+from contact.solver import ElasticBody
 
 from ._common import (
     Column,
@@ -86,12 +92,15 @@ __all__ = [
     "GOAL_RADIUS_PCT",
     "GOAL_TIME_RATIO",
     "PENALTIES",
+    "SFEPY_CELLS",
     "SIZES",
     "SUPERLU_SIZES",
     "SfepyHertz",
     "run",
     "sfepy_available",
+    "sfepy_version",
     "solve_sfepy_hertz",
+    "solve_sfepy_press",
 ]
 
 #: Table advance (m) for R = 1: a/R is about 0.1, as in :mod:`benchmarks.hertz`.
@@ -118,6 +127,9 @@ SUPERLU_PENALTY = 1e4
 
 #: Integral order of the contact term on the faces (3: 2x2 Gauss on a quad).
 CONTACT_ORDER = 3
+
+#: SfePy's names of the cell types it is handed (the node order is VTK's in both codes).
+SFEPY_CELLS = {"hexahedron": "3_8", "tetra": "3_4"}
 
 #: The goal: the same accuracy (contact radius and peak pressure against Hertz, in %)
 #: in at most this fraction of SfePy's time.
@@ -183,7 +195,8 @@ def _sfepy() -> dict[str, Any]:
     }
 
 
-def _sfepy_version() -> str:
+def sfepy_version() -> str:
+    """SfePy's installed version, or ``"not installed"``."""
     try:
         return importlib.metadata.version("sfepy")
     except importlib.metadata.PackageNotFoundError:
@@ -257,11 +270,7 @@ def solve_sfepy_hertz(
 ) -> SfepyHertz:
     """Solve the scene of a Hertz check with SfePy's penalty contact plane and measure it.
 
-    The mesh, the material, the prescribed DOFs of ``check.body`` and the table
-    ``check.planes[0]`` are handed to SfePy as they are. Contact is possible on the
-    boundary faces with every node on the ball's sphere (those of the symmetry planes
-    are left out), as our solver's candidates; the plane is bounded by a square of 8 R
-    about the ball, wider than any of it.
+    :func:`solve_sfepy_press` on the check's mesh, body and table.
 
     Parameters
     ----------
@@ -282,12 +291,72 @@ def solve_sfepy_hertz(
     """
     if len(check.planes) != 1:
         raise ValueError("solve_sfepy_hertz takes the octant model (one plane)")
+    return solve_sfepy_press(
+        check.mesh,
+        check.body,
+        check.planes[0],
+        penalty,
+        radius=check.hertz.radius,
+        linear_solver=linear_solver,
+        order=order,
+        max_iterations=max_iterations,
+    )
+
+
+def solve_sfepy_press(
+    mesh: fem.Mesh,
+    body: ElasticBody,
+    plane: Plane,
+    penalty: float,
+    *,
+    radius: float,
+    linear_solver: str = "pypardiso",
+    order: int = CONTACT_ORDER,
+    max_iterations: int = 50,
+    fraction: float = 0.25,
+    edge_cells: float = 2.0,
+) -> SfepyHertz:
+    """Solve an octant of a ball on a rigid plane with SfePy's penalty contact and measure it.
+
+    The mesh (bricks ``3_8`` or tetrahedra ``3_4``: one cell type, VTK's node order,
+    SfePy's too), the material and the prescribed DOFs of ``body`` and the plane are handed
+    to SfePy as they are. The ball's centre is ``(0, 0, radius)``, the load axis the z axis.
+    Contact is possible on the boundary faces with every node on the ball's sphere (those
+    of the symmetry planes are left out), as our solver's candidates; the plane is bounded
+    by a square of 8 R about the ball, wider than any of it.
+
+    Parameters
+    ----------
+    mesh : fem.Mesh
+        The body's mesh.
+    body : ElasticBody
+        Our body on it: its material and ``fixed_dofs``.
+    plane : Plane
+        The rigid plane, moved by its ``motion``.
+    penalty : float
+        Penalty stiffness ``k`` (Pa/m): traction ``k d`` at a penetration ``d``.
+    radius : float
+        The ball's radius (m).
+    linear_solver : {"pypardiso", "scipy_direct"}
+        SfePy's linear solver in each Newton step.
+    order : int
+        Integral order of the contact term on the faces.
+    max_iterations : int
+        Newton's limit.
+    fraction, edge_cells : float
+        Passed to :func:`~contact.cases.hertz.measure_contact_patch`.
+
+    Returns
+    -------
+    SfepyHertz
+    """
     sf = _sfepy()
-    mesh, body, plane = check.mesh, check.body, check.planes[0]
+    kinds = [k for k in SFEPY_CELLS if k in mesh.cells]
+    if len(kinds) != 1 or len(mesh.cells) != 1:
+        raise ValueError(f"one cell type of {sorted(SFEPY_CELLS)} expected, got {list(mesh.cells)}")
     mat = body.materials
-    radius = check.hertz.radius
     center = np.array([0.0, 0.0, radius])
-    hexa = mesh.cells["hexahedron"]
+    cells = mesh.cells[kinds[0]]
     fixed = body.fixed_dofs.reshape(-1, 3)
 
     t0 = time.perf_counter()
@@ -295,9 +364,9 @@ def solve_sfepy_hertz(
         "ball",
         mesh.points,
         np.zeros(mesh.n_points, dtype=np.int32),
-        [hexa.astype(np.int32)],
-        [np.zeros(len(hexa), dtype=np.int32)],
-        ["3_8"],
+        [cells.astype(np.int32)],
+        [np.zeros(len(cells), dtype=np.int32)],
+        [SFEPY_CELLS[kinds[0]]],
     )
     domain = sf["FEDomain"]("domain", smesh)
     omega = domain.create_region("Omega", "all")
@@ -389,8 +458,8 @@ def solve_sfepy_hertz(
         _Forces(force),  # type: ignore[arg-type]
         plane,
         center=np.zeros(3),
-        fraction=0.25,
-        edge_cells=2.0,
+        fraction=fraction,
+        edge_cells=edge_cells,
     )
     hz = hertz_sphere_on_plane(patch.force, radius, mat.E, mat.nu)
     ts = status.get("time_stats", {})
@@ -763,7 +832,7 @@ def run(quick: bool = False, out: str | Path | None = None) -> list[dict]:
         print("[sfepy_hertz] SfePy is not installed: skipped", flush=True)
         return _skip(folder)
     info = machine_info()
-    info["sfepy"] = _sfepy_version()
+    info["sfepy"] = sfepy_version()
     info["sfepy linear solver"] = "ls.pypardiso (MKL PARDISO), nls.newton"
     repeat = 1 if quick else REPEAT
     _warm_up()
