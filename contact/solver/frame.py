@@ -117,8 +117,11 @@ class FrameState:
         around it on the slave, and the master nodes those can reach, measured at rest
         (or at ``start``, where the frame's first search looks). Rows there get their
         compliance from partial solves (:meth:`fem.StaticSolver.mark`); a row outside
-        (the patch grew further) costs a full back-solve, nothing else. ``extra`` nodes
-        are marked first (friction's anchors).
+        (the patch grew further) costs a full back-solve, nothing else. Where both sides
+        of a pair are held, the expected patch is the first contact set: the nodes deeper
+        than half the deepest overlap (about half the overlap's area, and of the marked
+        DOFs, whose count makes the factorisation dearer). ``extra`` nodes are marked
+        first (friction's anchors).
         """
         t = time.perf_counter()
         u = {b.name: np.zeros((b.mesh.n_points, 3)) for b in self.bodies}
@@ -151,7 +154,8 @@ class FrameState:
             local = self.local[slave.name][p.nodes]
             sel = slave_zone(slave.mesh.points, p.nodes, p.gap, first, local)
             # and every node the first set holds (inside, or within the near band)
-            sel |= p.gap < self.contacts.near_band(pair, p, contactset.NEAR)
+            if pair.loose:
+                sel |= p.gap < self.contacts.near_band(pair, p, contactset.NEAR)
             near, gap = p.nodes[sel], p.gap[sel]
             if not near.size:
                 continue

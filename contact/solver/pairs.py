@@ -84,6 +84,15 @@ class ContactPair:
         """True when the master is a plane."""
         return isinstance(self.master, Plane)
 
+    @property
+    def loose(self) -> bool:
+        """True when a side is placed by the contacts: a free body or a force-driven plane.
+
+        Such a side can slide through what it nearly touches in the frame's first solve.
+        """
+        m = self.master
+        return self.slave.free or (m.force is not None if isinstance(m, Plane) else m.free)
+
     @cached_property
     def candidates(self) -> NDArray[np.int64]:
         """Slave nodes that can touch.
