@@ -26,8 +26,8 @@ compliances, which makes every residual a force. The first steps take the slip's
 derivative with a backtracking line search on ``|F|^2``; where the active sets cycle it
 starts again with another multiple of ``c_p, c_t`` or the derivative of Hueber, Stadler
 and Wohlmuth, then tries a fixed point of Tresca problems (the radii ``mu N`` of the
-last normal forces) finished by Coulomb's, and last a continuation in springs that hold
-the free bodies (:data:`PHASES`).
+normal forces, Anderson-accelerated) finished by Coulomb's, then a continuation in
+springs that hold the free bodies (:data:`PHASES`).
 Where ``mu = 0`` everywhere the frictionless LCP (:mod:`contact.solver.lcp`) is used
 instead.
 """
@@ -50,8 +50,8 @@ __all__ = ["FRICTION_TOLERANCE", "FrictionResult", "solve_friction"]
 
 #: Residual of the natural map, over the force scale, below which a solve has converged.
 FRICTION_TOLERANCE = 1e-9
-#: Newton steps before a solve gives up (an unload that reverses the slip takes the most).
-MAX_NEWTON = 200
+#: Newton steps before a solve gives up (a contact set at its slip limit takes the most).
+MAX_NEWTON = 400
 #: Newton steps without halving the residual after which the active sets are taken to
 #: cycle and the next strategy starts.
 STALL = 10
@@ -74,9 +74,9 @@ STRATEGIES = (
     (0.3, "search"),
 )
 #: The order the solve tries them in: the whole-step strategies, then the fixed point of
-#: Tresca problems (the radii ``mu N`` of the last normal forces), then the searched
-#: ones, then the continuation in springs on the free bodies (:func:`_springs`).
-PHASES = (*STRATEGIES[:6], "tresca", *STRATEGIES[6:], "springs")
+#: Tresca problems (the radii ``mu N`` of the last normal forces), the continuation in
+#: springs on the free bodies (:func:`_springs`), then the searched ones.
+PHASES = (*STRATEGIES[:6], "tresca", "springs", *STRATEGIES[6:])
 #: The continuation's springs on the free bodies, in the contacts' stiffness seen in
 #: their modes: from stiff ones that carry every load (a problem any start solves) to
 #: soft ones whose solution is the unsprung one's where the contacts hold the bodies.
@@ -88,6 +88,12 @@ POLISH_TOL = 1e-14
 SHIFT = 1e-10
 #: Tresca solves of the fixed point (each with the radii of the last normal forces).
 TRESCA = 30
+#: Iterates Anderson's acceleration of that fixed point mixes.
+ANDERSON = 4
+#: Newton steps the Tresca and the springs phases may take each: where one cannot settle
+#: a contact set (Tresca's radii that cannot carry a free body's load), the other still
+#: has its turn.
+PHASE_STEPS = 150
 
 
 OPEN, STICK, SLIP = 0, 1, 2
@@ -265,13 +271,13 @@ def _newton(
         if phase == "springs":
             if not base.r:
                 continue
-            x, n = _springs(base, best, scale, tol, max_steps - steps)
+            x, n = _springs(base, best, scale, tol, min(PHASE_STEPS, max_steps - steps))
         elif phase == "tresca":
             if not base.fr.size:
                 continue
             # Tresca's law with the radii of the last normal forces, in turn, until the
             # normal forces settle; then Coulomb's from there
-            x, n = _tresca(base, best, measure, tol, max_steps - steps)
+            x, n = _tresca(base, best, measure, tol, min(PHASE_STEPS, max_steps - steps))
         else:
             factor, mode = phase
             x, n = _descend(base.scaled(factor), lam, a, measure, tol, mode, max_steps - steps)
@@ -355,27 +361,43 @@ def _descend(prob: NaturalMap, lam, a, measure, tol, mode: str, budget: int):
 
 
 def _tresca(base: NaturalMap, best, measure, tol, budget: int):
-    """Tresca solves with the radii ``mu N`` of the last normal forces until they settle."""
+    """Tresca solves with the radii ``mu N`` of the normal forces until those settle.
+
+    The fixed point ``N = Phi(N)`` (``Phi``: the normal forces of the Tresca solve with
+    radii ``mu N``) is taken by Anderson's acceleration over the last :data:`ANDERSON`
+    iterates: near a slip limit the plain iteration swings between two states.
+    """
     k = base.k
     _, lam, a = best
     n = 0
-    normal = np.maximum(lam[:k], 0.0)
+    x = np.maximum(lam[:k], 0.0)
+    xs: list[NDArray] = []
+    fs: list[NDArray] = []
     for _ in range(TRESCA):
-        fixed = base.mu[base.fr] * normal[base.fr]
+        fixed = base.mu[base.fr] * x[base.fr]
         tres = base.scaled(1.0, fixed)
 
         def gap(lam: NDArray, a: NDArray, prob=tres) -> float:
             f, _ = prob.residual(lam, a)
             return _relative(f, lam, 1e-300)
 
-        x, used = _strategies(base, fixed, lam, a, gap, tol, budget - n)
+        y, used = _strategies(base, fixed, lam, a, gap, tol, budget - n)
         n += used
-        lam, a = x[1], x[2]
-        now = np.maximum(lam[:k], 0.0)
-        settled = np.abs(now - normal).max(initial=0.0) <= tol * max(now.max(initial=0.0), 1e-300)
-        normal = now
-        if settled or n >= budget:
+        lam, a = y[1], y[2]
+        f = np.maximum(lam[:k], 0.0) - x
+        if np.abs(f).max(initial=0.0) <= tol * max(float(np.abs(lam[:k]).max()), 1e-300):
             break
+        if n >= budget:
+            break
+        xs.append(x)
+        fs.append(f)
+        step = x + f
+        if len(fs) > 1:
+            d_f = np.column_stack([fs[i + 1] - fs[i] for i in range(len(fs) - 1)][-ANDERSON:])
+            d_x = np.column_stack([xs[i + 1] - xs[i] for i in range(len(xs) - 1)][-ANDERSON:])
+            gamma = np.linalg.lstsq(d_f, f, rcond=None)[0]
+            step = step - (d_x + d_f) @ gamma
+        x = np.maximum(step, 0.0)
     # Coulomb's law from the settled Tresca solution
     x, used = _strategies(base, None, lam, a, measure, tol, budget - n)
     return x, n + used

@@ -3,9 +3,11 @@
 Each is a contact system taken from a grasp (``tests/solver/data/hard_friction.npz``: the
 Delassus operator, rigid modes, right-hand side, loads, coefficients and tangential rows):
 the cube of ``examples/cube.toml`` hanging from three fingers at mu 0.3 (two contact sets
-of its last frame) and two free bodies pressed together by the hand with friction. A
-Newton method with whole steps and Hueber, Stadler and Wohlmuth's slip derivative cycles on
-all three; the solve must still meet Coulomb's law to the tolerance.
+of its last frame) and at mu 0.2 (near its slip limit: a Tresca problem with
+the radii of a guess cannot carry its weight, and the fixed point of Tresca problems
+swings between two states), and two free bodies pressed together by the hand with
+friction. A Newton method with whole steps and Hueber, Stadler and Wohlmuth's slip
+derivative cycles on all four; the solve must still meet Coulomb's law to the tolerance.
 """
 
 from __future__ import annotations
@@ -27,7 +29,7 @@ def _case(name: str) -> dict:
         }
 
 
-@pytest.mark.parametrize("name", ["cube_a", "cube_b", "two_bodies"])
+@pytest.mark.parametrize("name", ["cube_a", "cube_b", "cube_limit", "two_bodies"])
 def test_a_cycling_contact_set_meets_coulombs_law(name: str) -> None:
     p = _case(name)
     mu, tangent = p["mu"], p["tangent"]
