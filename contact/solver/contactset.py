@@ -43,14 +43,15 @@ CORNER_ROWS = 3
 #: Times a contact row may be linearised again on the same facet in one frame (a soft
 #: master's facets turn under the load; a bound in case the turning does not settle).
 RELINEARISE = 8
-#: Where a side of a pair is placed by the contacts (:attr:`ContactPair.loose`: a free
-#: body, a force-driven plane), the first contact set of contact space holds every node
-#: inside its master or outside within this many of its element sizes (or the pair's
-#: deepest overlap, see :meth:`ContactSet.near_band`), as candidates: a free body's first
-#: solve would otherwise slide it through what it nearly touches (a bowl's walls that
-#: touch the ball between nodes, a palm half a millimetre above a ball the fingers
-#: squeeze). Where both sides are held, it holds the nodes deeper than half the deepest
-#: overlap (:func:`first_set`): about Hertz's patch, not the overlap's twice its area.
+#: Where a side of a pair is placed by the contacts (a free body, a force-driven plane)
+#: or the pair has friction (:attr:`ContactPair.wide_start`), the first contact set of
+#: contact space holds every node inside its master or outside within this many of its
+#: element sizes (or the pair's deepest overlap, see :meth:`ContactSet.near_band`), as
+#: candidates: a free body's first solve would otherwise slide it through what it nearly
+#: touches (a bowl's walls that touch the ball between nodes, a palm half a millimetre
+#: above a ball the fingers squeeze). Otherwise it holds the nodes deeper than half the
+#: deepest overlap (:func:`first_set`): about Hertz's patch, not the overlap's twice its
+#: area.
 NEAR = 0.5
 #: Stride of a row's (pair, node) key: more nodes than any body has.
 _KEY_STRIDE = 1 << 40
@@ -215,7 +216,7 @@ class ContactSet:
             fresh = ~active & ~among(p.nodes, dropped.node[dropped.pair == i], n_slave)
             depth = max(depth, float(np.max(-p.gap, initial=0.0)))
             hit = fresh & (first_set(p.gap, tol) if touching else (p.gap < -tol))
-            if touching and near > 0.0 and pair.loose:
+            if touching and near > 0.0 and pair.wide_start:
                 # every node inside or near: the unilateral solve closes what must push
                 hit |= fresh & (p.gap < self.near_band(pair, p, near))
             j = self.reverse[i]

@@ -118,7 +118,7 @@ class FrameState:
         (or at ``start``, where the frame's first search looks). Rows there get their
         compliance from partial solves (:meth:`fem.StaticSolver.mark`); a row outside
         (the patch grew further) costs a full back-solve, nothing else. Where both sides
-        of a pair are held, the expected patch is the first contact set: the nodes deeper
+        of a frictionless pair are held, the expected patch is the first set: the nodes deeper
         than half the deepest overlap (about half the overlap's area, and of the marked
         DOFs, whose count makes the factorisation dearer). ``extra`` nodes are marked
         first (friction's anchors).
@@ -154,7 +154,7 @@ class FrameState:
             local = self.local[slave.name][p.nodes]
             sel = slave_zone(slave.mesh.points, p.nodes, p.gap, first, local)
             # and every node the first set holds (inside, or within the near band)
-            if pair.loose:
+            if pair.wide_start:
                 sel |= p.gap < self.contacts.near_band(pair, p, contactset.NEAR)
             near, gap = p.nodes[sel], p.gap[sel]
             if not near.size:

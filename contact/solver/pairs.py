@@ -93,6 +93,16 @@ class ContactPair:
         m = self.master
         return self.slave.free or (m.force is not None if isinstance(m, Plane) else m.free)
 
+    @property
+    def wide_start(self) -> bool:
+        """True when the frame's first contact set takes every node inside or near.
+
+        Where a side is :attr:`loose`, or where the pair has friction (each contact-set
+        update is a frictional solve, dearer than the rows it saves). Otherwise the first
+        set is the nodes deeper than half the deepest overlap: about Hertz's patch.
+        """
+        return self.loose or self.friction > 0
+
     @cached_property
     def candidates(self) -> NDArray[np.int64]:
         """Slave nodes that can touch.

@@ -1,7 +1,7 @@
 """The first contact set and zone of a pair whose two sides are held.
 
-A ball held on its symmetry planes pressed by a rigid table: no side is placed by the
-contacts, so the first set is the nodes deeper than half the deepest overlap (about
+A ball held on its symmetry planes pressed by a rigid frictionless table: no side is
+placed by the contacts, so the first set is the nodes deeper than half the deepest overlap (about
 Hertz's patch) and the zone marked for partial solves is that patch and a ring, not the
 whole overlap (twice its area). The answer is the same as with the whole overlap taken.
 """
@@ -42,7 +42,7 @@ def test_a_held_press_marks_about_its_patch_and_solves_as_with_the_whole_overlap
     assert overlap > 1.5 * patch  # the overlap is about twice the patch
     assert marked < 0.75 * overlap  # the zone: the patch and a ring
     # taken as if the ball were free (every overlapping node a candidate): the same answer
-    monkeypatch.setattr(ContactPair, "loose", property(lambda self: True))
+    monkeypatch.setattr(ContactPair, "wide_start", property(lambda self: True))
     body2, res2 = _press(depth)
     assert body2.solver.marked.size // 3 >= overlap
     u, u2 = res.displacement["ball"], res2.displacement["ball"]
