@@ -118,10 +118,10 @@ class FrameState:
         (or at ``start``, where the frame's first search looks). Rows there get their
         compliance from partial solves (:meth:`fem.StaticSolver.mark`); a row outside
         (the patch grew further) costs a full back-solve, nothing else. Where both sides
-        of a frictionless pair are held, the expected patch is the first set: the nodes deeper
-        than half the deepest overlap (about half the overlap's area, and of the marked
-        DOFs, whose count makes the factorisation dearer). ``extra`` nodes are marked
-        first (friction's anchors).
+        of a frictionless pair are held, the expected patch is the first set: the nodes
+        deeper than half the deepest overlap, about half the overlap's area and so half
+        its marked DOFs (their count makes the factorisation dearer). ``extra`` nodes are
+        marked first (friction's anchors).
         """
         t = time.perf_counter()
         u = {b.name: np.zeros((b.mesh.n_points, 3)) for b in self.bodies}
