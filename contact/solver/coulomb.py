@@ -20,6 +20,12 @@ __all__ = ["Slip", "friction_state", "unheld"]
 #: this fraction of its loads or of its friction (held, it carries about the spring's
 #: stiffness over the contacts').
 UNBALANCED = 1e-3
+#: The springs :func:`unheld` holds a free body by, stiff to soft, in the contacts'
+#: stiffness seen in its modes (a stiff one's solve settles where a soft one's may not).
+SPRINGS = (1e-1, 1e-2, 1e-3, 1e-4, SPRING)
+#: A spring's share of the loads that falls by less than this factor when the spring
+#: softens tenfold is a load the contacts do not carry (held, it falls tenfold too).
+PERSISTS = 0.5
 
 
 def friction_state(
@@ -145,24 +151,50 @@ def unheld(frame, space: ContactSpace, friction: Friction, rows: ContactRows) ->
     """The slip of a free body the last solve found no balance for, else None.
 
     Called when the frictional solve did not settle. The same contacts are solved with
-    each free body held by a soft spring in its rigid modes (``SPRING`` of
-    :mod:`contact.solver.delassus`), a problem that always has a solution: where the body
-    is held the spring carries almost nothing, where it is not the spring carries the load
-    the contacts could not. The message names the body, that load (N) and the way it
-    slips, or the moment (N m) and the axis it turns about where only a moment is left,
-    and the friction available (the sum of ``mu N`` over its contacts).
+    each free body held by a spring in its rigid modes, softer in turn (:data:`SPRINGS`,
+    down to ``SPRING`` of :mod:`contact.solver.delassus`), each a problem that has a
+    solution: where the body is held the spring's share of its load falls with the
+    spring's stiffness, where it is not the spring keeps carrying the load the contacts
+    cannot. So the body slips where that share stays (:data:`PERSISTS`) from one spring
+    to the next, or is still there at the softest; the load reported is the share of the
+    two softest springs solved, less its elastic part (in proportion to the spring). The
+    message names the body, that load (N) and the way it slips, or the moment (N m) and
+    the axis it turns about where only a moment is left, and the friction available (the
+    sum of ``mu N`` over its contacts). None where the springs' solves say neither.
     """
     sys_, mu, tangent = friction.system
     g, c = sys_.g, sys_.c
     if not g.shape[1]:
         return None
-    res = solve_friction(
-        sys_.w, g, sys_.rhs, c, mu=mu, tangent=tangent, load_scale=sys_.load_scale,
-        spring=SPRING,
-    )
-    if not res.solved:  # no answer to read the load not carried from
-        return None
-    net = space.net_wrenches(g.T @ res.lam - c)  # what the springs hold
+    levels: list[tuple[float, FrictionResult, NDArray]] = []
+    for spring in SPRINGS:
+        res = solve_friction(
+            sys_.w, g, sys_.rhs, c, mu=mu, tangent=tangent, load_scale=sys_.load_scale,
+            spring=spring, start=levels[-1][1].lam if levels else None,
+        )
+        if not res.solved:
+            break
+        carried = g.T @ res.lam - c  # what the springs hold, in the modes
+        if _worst_slip(frame, space, rows, res, carried) is None:
+            return None  # the contacts carry all but a spring's share: held
+        levels.append((spring, res, carried))
+    if len(levels) < 2:
+        return None  # no two answers to tell a slip from a spring's share
+    (s1, _, c1), (s2, res, c2) = levels[-2:]
+    before = _worst_slip(frame, space, rows, levels[-2][1], c1)
+    now = _worst_slip(frame, space, rows, res, c2)
+    assert before is not None and now is not None
+    if s2 > SPRINGS[-1] and now.not_carried <= PERSISTS * before.not_carried:
+        return None  # falling with the spring, the softer ones unsolved: undecided
+    # the spring's share less its elastic part, which falls in proportion to it
+    return _worst_slip(frame, space, rows, res, c2 - (c1 - c2) * s2 / (s1 - s2))
+
+
+def _worst_slip(
+    frame, space: ContactSpace, rows: ContactRows, res: FrictionResult, carried: NDArray
+) -> Slip | None:
+    """The free body whose spring carries the most of its loads (``carried``), or None."""
+    net = space.net_wrenches(carried)  # what the springs hold
     worst: Slip | None = None
     for body in frame.bodies:
         if body.name not in net:
