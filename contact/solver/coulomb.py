@@ -156,8 +156,8 @@ def unheld(frame, space: ContactSpace, friction: Friction, rows: ContactRows) ->
     solution: where the body is held the spring's share of its load falls with the
     spring's stiffness, where it is not the spring keeps carrying the load the contacts
     cannot. So the body slips where that share stays (:data:`PERSISTS`) from one spring
-    to the next, or is still there at the softest; the load reported is the share of the
-    two softest springs solved, less its elastic part (in proportion to the spring). The
+    to the next, or is still there at the softest; the load reported is the softest
+    solved spring's share (it falls to the load not carried as the spring softens). The
     message names the body, that load (N) and the way it slips, or the moment (N m) and
     the axis it turns about where only a moment is left, and the friction available (the
     sum of ``mu N`` over its contacts). None where the springs' solves say neither.
@@ -173,21 +173,21 @@ def unheld(frame, space: ContactSpace, friction: Friction, rows: ContactRows) ->
             spring=spring, start=levels[-1][1].lam if levels else None,
         )
         if not res.solved:
-            break
+            continue  # a softer one may settle
         carried = g.T @ res.lam - c  # what the springs hold, in the modes
         if _worst_slip(frame, space, rows, res, carried) is None:
             return None  # the contacts carry all but a spring's share: held
         levels.append((spring, res, carried))
     if len(levels) < 2:
         return None  # no two answers to tell a slip from a spring's share
-    (s1, _, c1), (s2, res, c2) = levels[-2:]
-    before = _worst_slip(frame, space, rows, levels[-2][1], c1)
-    now = _worst_slip(frame, space, rows, res, c2)
-    assert before is not None and now is not None
+    (_, res1, c1), (s2, res2, c2) = levels[-2:]
+    before = _worst_slip(frame, space, rows, res1, c1)
+    now = _worst_slip(frame, space, rows, res2, c2)
+    if now is None or before is None:
+        return None
     if s2 > SPRINGS[-1] and now.not_carried <= PERSISTS * before.not_carried:
         return None  # falling with the spring, the softer ones unsolved: undecided
-    # the spring's share less its elastic part, which falls in proportion to it
-    return _worst_slip(frame, space, rows, res, c2 - (c1 - c2) * s2 / (s1 - s2))
+    return now  # the softest spring's share: the load the contacts leave, from above
 
 
 def _worst_slip(
