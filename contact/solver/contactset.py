@@ -17,6 +17,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from . import zone
 from .pairs import ContactPair, Penetrations
 from .rows import ContactRows, MortarCandidates
 
@@ -50,8 +51,8 @@ RELINEARISE = 8
 #: candidates: a free body's first solve would otherwise slide it through what it nearly
 #: touches (a bowl's walls that touch the ball between nodes, a palm half a millimetre
 #: above a ball the fingers squeeze). Otherwise it holds the nodes deeper than half the
-#: deepest overlap (:func:`first_set`): about Hertz's patch, not the overlap's twice its
-#: area.
+#: deepest overlap (:func:`first_set`), about Hertz's patch, and a ring of
+#: :data:`contact.solver.zone.HELD_RING` elements: about half the overlap's area.
 NEAR = 0.5
 #: Stride of a row's (pair, node) key: more nodes than any body has.
 _KEY_STRIDE = 1 << 40
@@ -219,6 +220,12 @@ class ContactSet:
             if touching and near > 0.0 and pair.wide_start:
                 # every node inside or near: the unilateral solve closes what must push
                 hit |= fresh & (p.gap < self.near_band(pair, p, near))
+            elif touching and near > 0.0:
+                # Hertz's patch and a ring, as the zone marks them: the patch ends about
+                # there, and the ring takes in what the discrete one has beyond it
+                local = fr.local[pair.slave.name][p.nodes]
+                x = pair.slave.mesh.points
+                hit = fresh & zone.slave_zone(x, p.nodes, p.gap, hit, local, zone.HELD_RING)
             j = self.reverse[i]
             if j >= 0 and hit.any():
                 # node on node: a slave node whose closest point is a master vertex that

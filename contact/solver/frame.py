@@ -23,6 +23,7 @@ import fem
 from ..errors import ContactError
 from ..geometry.plane import Plane
 from . import contactset, held
+from . import zone as zones
 from .anchors import Anchors
 from .body import ElasticBody
 from .contactset import ContactSet, first_set
@@ -119,9 +120,9 @@ class FrameState:
         compliance from partial solves (:meth:`fem.StaticSolver.mark`); a row outside
         (the patch grew further) costs a full back-solve, nothing else. Where both sides
         of a frictionless pair are held, the expected patch is the first set: the nodes
-        deeper than half the deepest overlap, about half the overlap's area and so half
-        its marked DOFs (their count makes the factorisation dearer). ``extra`` nodes are
-        marked first (friction's anchors).
+        deeper than half the deepest overlap and a ring (``HELD_RING`` of :mod:`.zone`),
+        about half the overlap's area and so half its marked DOFs (their count makes the
+        factorisation dearer). ``extra`` nodes are marked first (friction's anchors).
         """
         t = time.perf_counter()
         u = {b.name: np.zeros((b.mesh.n_points, 3)) for b in self.bodies}
@@ -152,7 +153,8 @@ class FrameState:
             slave = pair.slave
             first = first_set(p.gap, self.tol(pair, p.nodes))  # as new_rows takes it
             local = self.local[slave.name][p.nodes]
-            sel = slave_zone(slave.mesh.points, p.nodes, p.gap, first, local)
+            ring = None if pair.wide_start else zones.HELD_RING
+            sel = slave_zone(slave.mesh.points, p.nodes, p.gap, first, local, ring)
             # and every node the first set holds (inside, or within the near band)
             if pair.wide_start:
                 sel |= p.gap < self.contacts.near_band(pair, p, contactset.NEAR)

@@ -19,12 +19,17 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
-__all__ = ["APPROACH", "RING", "master_zone", "slave_zone"]
+__all__ = ["APPROACH", "HELD_RING", "RING", "master_zone", "slave_zone"]
 
 #: Width of the ring around the expected patch, in element sizes: a wider ring marks more
 #: DOFs (a dearer factorisation) for fewer back-solves of rows outside it; see
 #: benchmarks/results/frame.md.
 RING = 1.0
+#: The ring of a pair whose sides are both held and frictionless, whose first contact set
+#: is Hertz's patch, the nodes deeper than half the deepest overlap, and this ring
+#: (:mod:`contact.solver.contactset`): the discrete patch reaches up to about two
+#: elements past it, and a first set that holds it takes one update on every mesh.
+HELD_RING = 2.0
 #: Where nothing overlaps yet (a free ball a plate will move onto a hand), the expected
 #: patch is the nodes within this many element sizes of the closest approach: the patch
 #: of a body that moves half an element further (a whole one marked up to four times as
@@ -38,6 +43,7 @@ def slave_zone(
     gap: NDArray[np.float64],
     first: NDArray[np.bool_],
     local: NDArray[np.float64],
+    ring: float | None = None,
 ) -> NDArray[np.bool_]:
     """Which slave nodes are in the zone: the first contact set and a ring around it.
 
@@ -53,6 +59,8 @@ def slave_zone(
         Those in the first contact set.
     local : ndarray, shape (k,)
         Their element sizes (m).
+    ring : float, optional
+        The ring's width, in element sizes (default :data:`RING`).
 
     Returns
     -------
@@ -66,9 +74,10 @@ def slave_zone(
         core = gap <= gap[j] + APPROACH * local[j]
     x = points[nodes]
     # the query's bound is strict: a node exactly RING away is still in the ring
-    bound = np.nextafter(RING * float(local.max()), np.inf)
+    ring = RING if ring is None else ring
+    bound = np.nextafter(ring * float(local.max()), np.inf)
     d, _ = cKDTree(x[core]).query(x, distance_upper_bound=bound)
-    return core | (d <= RING * local)
+    return core | (d <= ring * local)
 
 
 def master_zone(
