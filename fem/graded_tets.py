@@ -185,22 +185,21 @@ def graded_tet_octant(
 def _snapped(mesh: Mesh, radius: float, center: NDArray[np.float64], tol: float) -> Mesh:
     """The mesh with its boundary nodes moved onto the cut planes and the sphere.
 
-    A boundary triangle lies on the plane ``x_k = 0`` when its normal is along ``e_k`` and
-    its nodes are within ``tol`` of it, on the sphere when its normal is radial and its
-    nodes within ``tol`` of it: only their nodes move (a sliver near a plane is not
-    flattened onto it).
+    The octant's boundary is the three cut planes and the sphere: a boundary node within
+    ``tol`` of a plane ``x_k = 0`` goes onto it; one that is on no plane, or within ``tol``
+    of the sphere, goes radially onto the sphere (a node on a plane stays on it).
+    fTetWild leaves nodes up to about its envelope off the surface, a few near the
+    sphere's coarse facets further: a node's own surfaces, not its triangles' normals,
+    tell where it belongs.
     """
     p = mesh.points.copy()
-    tri = mesh.boundary.faces["triangle"]
-    x = p[tri] - center
-    n = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
-    n /= np.linalg.norm(n, axis=1, keepdims=True)
-    for k in range(3):
-        flat = (np.abs(n[:, k]) > 0.99) & (np.abs(x[:, :, k]) <= tol).all(axis=1)
-        p[np.unique(tri[flat]), k] = center[k]
-    r = np.linalg.norm(x, axis=2)
-    radial = np.einsum("ij,ij->i", n, x.mean(axis=1)) > 0.9 * radius
-    nodes = np.unique(tri[radial & (np.abs(r - radius) <= tol).all(axis=1)])
+    nodes = np.unique(mesh.boundary.faces["triangle"])
     d = p[nodes] - center
-    p[nodes] = center + d * (radius / np.linalg.norm(d, axis=1))[:, None]
+    near = np.abs(d) <= tol  # (m, 3): on the plane x_k = 0
+    d[near] = 0.0
+    r = np.linalg.norm(d, axis=1)
+    sphere = ~near.any(axis=1) | (np.abs(r - radius) <= tol)
+    sphere &= r > 0
+    d[sphere] *= (radius / r[sphere])[:, None]
+    p[nodes] = center + d
     return Mesh(p, mesh.cells)

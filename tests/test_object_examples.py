@@ -32,7 +32,11 @@ def test_the_example_holds_its_object_at_every_frame(tmp_path: Path, name: str) 
 
 @pytest.mark.slow
 def test_the_cube_near_its_slip_limit_ends_every_frame_with_a_verdict(tmp_path: Path) -> None:
-    """At mu 0.3 on the pads (the example has 0.8) every frame settles: held or not held."""
+    """At mu 0.3 on the pads (the example has 0.8) every frame settles to a verdict.
+
+    Held, not held, or turned past the small rotations the linear model describes; never
+    "friction did not settle".
+    """
     text = (ROOT / "examples" / "cube.toml").read_text()
     text = text.replace('"../meshes/', f'"{ROOT.as_posix()}/meshes/')
     assert "friction = 0.8 " in text
@@ -43,5 +47,7 @@ def test_the_cube_near_its_slip_limit_ends_every_frame_with_a_verdict(tmp_path: 
     frames = json.loads((out / "summary.json").read_text())["frames"]
     assert len(frames) == 4
     for f in frames:
-        assert f["converged"] or f["stop_reason"].startswith("not held"), f["stop_reason"]
+        # converged, or a verdict: not held, or turned past what the linear model describes
+        stop = f["stop_reason"]
+        assert f["converged"] or stop.startswith(("not held", "cube turned")), stop
         assert f["friction"]["residual"] <= f["friction"]["tolerance"] or not f["converged"]
