@@ -96,8 +96,11 @@ __all__ = [
     "SIZES",
     "SUPERLU_SIZES",
     "SfepyHertz",
+    "load1",
     "run",
     "sfepy_available",
+    "sfepy_missing",
+    "sfepy_times",
     "sfepy_version",
     "solve_sfepy_hertz",
     "solve_sfepy_press",
@@ -631,7 +634,8 @@ def _row(
     }
 
 
-def _load1() -> float:
+def load1() -> float:
+    """The one-minute load average, NaN where the system gives none."""
     try:
         return os.getloadavg()[0]
     except OSError:
@@ -645,7 +649,7 @@ def _ours(h: float) -> tuple[HertzCheck, dict[str, Any]]:
     row.update(
         iterations=chk.result.iterations,
         converged="yes" if chk.result.converged else "no",
-        load1=_load1(),
+        load1=load1(),
         ours_over_this=1.0,
     )
     return chk, row
@@ -657,10 +661,10 @@ def _ours_again(h: float, row: dict[str, Any]) -> None:
     t = _our_seconds(chk)
     row["runs"] += 1
     if t < row["total_s"]:
-        row.update(total_s=t, load1=_load1())
+        row.update(total_s=t, load1=load1())
 
 
-def _sfepy_times(row: dict[str, Any], res: SfepyHertz) -> None:
+def sfepy_times(row: dict[str, Any], res: SfepyHertz) -> None:
     """Put the time and its split of one SfePy run into its row."""
     s = res.seconds
     row.update(
@@ -670,7 +674,7 @@ def _sfepy_times(row: dict[str, Any], res: SfepyHertz) -> None:
         solve_s=s["solve"],
         residual_s=s["residual"],
         rest_s=s["newton"] - s["matrix"] - s["solve"] - s["residual"],
-        load1=_load1(),
+        load1=load1(),
     )
 
 
@@ -686,7 +690,7 @@ def _theirs(chk: HertzCheck, h: float, k: float, solver: str) -> dict[str, Any]:
         converged="yes" if res.converged else "no",
         equilibrium=res.equilibrium,
     )
-    _sfepy_times(row, res)
+    sfepy_times(row, res)
     return row
 
 
@@ -695,7 +699,7 @@ def _theirs_again(chk: HertzCheck, row: dict[str, Any]) -> None:
     res = solve_sfepy_hertz(chk, row["penalty"], linear_solver=row["linear_solver"])
     row["runs"] += 1
     if res.seconds["total"] < row["total_s"]:
-        _sfepy_times(row, res)
+        sfepy_times(row, res)
 
 
 def _candidates(rows: list[dict], h: float) -> list[dict]:
@@ -794,18 +798,18 @@ def _plot(path: Path, rows: list[dict], penalties: tuple[float, ...]) -> None:
     plt.close(fig)
 
 
-def _skip(folder: Path) -> list[dict]:
-    """Without SfePy: a note in the markdown, no rows."""
+def sfepy_missing(folder: Path, study: str, title: str) -> list[dict]:
+    """Without SfePy: ``<study>.md`` says so and how to install it; no rows."""
     write_markdown(
-        folder / "sfepy_hertz.md",
-        "Hertz against SfePy: not run",
+        folder / f"{study}.md",
+        f"{title}: not run",
         machine_info(),
         [
             (
                 "SfePy is not installed",
                 "SfePy could not be imported, so this comparison did not run. Install the "
                 "optional extra (`pip install .[benchmarks]`; SfePy ships an sdist only, "
-                "built with a C compiler) and run `python -m benchmarks.sfepy_hertz`.",
+                f"built with a C compiler) and run `python -m benchmarks.{study}`.",
             )
         ],
     )
@@ -830,7 +834,7 @@ def run(quick: bool = False, out: str | Path | None = None) -> list[dict]:
     folder = results_dir(out, quick)
     if not sfepy_available():
         print("[sfepy_hertz] SfePy is not installed: skipped", flush=True)
-        return _skip(folder)
+        return sfepy_missing(folder, "sfepy_hertz", "Hertz against SfePy")
     info = machine_info()
     info["sfepy"] = sfepy_version()
     info["sfepy linear solver"] = "ls.pypardiso (MKL PARDISO), nls.newton"

@@ -41,7 +41,6 @@ from __future__ import annotations
 import argparse
 import gc
 import math
-import os
 from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
@@ -66,8 +65,10 @@ from ._common import (
 from .patch import NU, RADIUS, E, _press, mesh_of
 from .sfepy_hertz import (
     CONTACT_ORDER,
-    SfepyHertz,
+    load1,
     sfepy_available,
+    sfepy_missing,
+    sfepy_times,
     sfepy_version,
     solve_sfepy_press,
 )
@@ -114,13 +115,6 @@ NEWTON_LIMIT = 50
 #: Growth of SfePy's seconds per Newton step with the DOFs (a tangent assembly and a
 #: PARDISO factorisation each): predicts the first run on the largest mesh.
 STEP_GROWTH = 1.3
-
-
-def _load1() -> float:
-    try:
-        return os.getloadavg()[0]
-    except OSError:
-        return math.nan
 
 
 def same_accuracy(row: dict[str, Any], ours: dict[str, Any]) -> bool:
@@ -180,7 +174,7 @@ def _ours(mesh: fem.Mesh, h: float, depth: float) -> tuple[ElasticBody, Plane, d
         "assemble_s": secs["assemble"],
         "factor_s": body.solver.factor_time,
         "runs": 1,
-        "load1": _load1(),
+        "load1": load1(),
         "load": load_average(),
         "ours_over_this": 1.0,
     }
@@ -198,22 +192,9 @@ def _ours_again(mesh: fem.Mesh, row: dict[str, Any]) -> None:
             total_s=t,
             assemble_s=secs["assemble"],
             factor_s=body.solver.factor_time,
-            load1=_load1(),
+            load1=load1(),
             load=load_average(),
         )
-
-
-def _sfepy_times(row: dict[str, Any], res: SfepyHertz) -> None:
-    s = res.seconds
-    row.update(
-        total_s=s["total"],
-        setup_s=s["setup"],
-        matrix_s=s["matrix"],
-        solve_s=s["solve"],
-        residual_s=s["residual"],
-        load1=_load1(),
-        load=load_average(),
-    )
 
 
 def _theirs(
@@ -232,7 +213,8 @@ def _theirs(
     )
     row.update(_measured(mesh, res.contact_force, plane, ours["force"]))
     row["same_accuracy"] = "yes" if same_accuracy(row, ours) else "no"
-    _sfepy_times(row, res)
+    sfepy_times(row, res)
+    row["load"] = load_average()
     return row
 
 
@@ -243,7 +225,8 @@ def _theirs_again(mesh: fem.Mesh, body: ElasticBody, plane: Plane, row: dict[str
     )
     row["runs"] += 1
     if res.seconds["total"] < row["total_s"]:
-        _sfepy_times(row, res)
+        sfepy_times(row, res)
+        row["load"] = load_average()
 
 
 def _fastest(rows: list[dict], ours: dict) -> dict | None:
@@ -427,24 +410,6 @@ CSV_KEYS = [
 ]
 
 
-def _skip(folder: Path) -> list[dict]:
-    """Without SfePy: a note in the markdown, no rows."""
-    write_markdown(
-        folder / "sfepy_patch.md",
-        "Hertz against SfePy on graded tetrahedral octants: not run",
-        machine_info(),
-        [
-            (
-                "SfePy is not installed",
-                "SfePy could not be imported, so this comparison did not run. Install the "
-                "optional extra (`pip install .[benchmarks]`) and run "
-                "`python -m benchmarks.sfepy_patch`.",
-            )
-        ],
-    )
-    return []
-
-
 def run(quick: bool = False, out: str | Path | None = None) -> list[dict]:
     """Press the graded tetrahedral octants with ours and SfePy's; write ``sfepy_patch.*``.
 
@@ -463,7 +428,9 @@ def run(quick: bool = False, out: str | Path | None = None) -> list[dict]:
     folder = results_dir(out, quick)
     if not sfepy_available():
         print("[sfepy_patch] SfePy is not installed: skipped", flush=True)
-        return _skip(folder)
+        return sfepy_missing(
+            folder, "sfepy_patch", "Hertz against SfePy on graded tetrahedral octants"
+        )
     info = machine_info()
     info["sfepy"] = sfepy_version()
     info["sfepy solvers"] = "nls.newton (ls_on 2), ls.pypardiso (MKL PARDISO)"

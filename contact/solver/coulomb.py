@@ -166,7 +166,7 @@ def unheld(frame, space: ContactSpace, friction: Friction, rows: ContactRows) ->
     g, c = sys_.g, sys_.c
     if not g.shape[1]:
         return None
-    levels: list[tuple[float, FrictionResult, NDArray]] = []
+    levels: list[tuple[float, FrictionResult, Slip]] = []
     for spring in SPRINGS:
         res = solve_friction(
             sys_.w, g, sys_.rhs, c, mu=mu, tangent=tangent, load_scale=sys_.load_scale,
@@ -174,18 +174,14 @@ def unheld(frame, space: ContactSpace, friction: Friction, rows: ContactRows) ->
         )
         if not res.solved:
             continue  # a softer one may settle
-        carried = g.T @ res.lam - c  # what the springs hold, in the modes
-        if _worst_slip(frame, space, rows, res, carried) is None:
+        slip = _worst_slip(frame, space, rows, res, g.T @ res.lam - c)  # the springs' load
+        if slip is None:
             return None  # the contacts carry all but a spring's share: held
-        levels.append((spring, res, carried))
+        levels.append((spring, res, slip))
     if len(levels) < 2:
         return None  # no two answers to tell a slip from a spring's share
-    (_, res1, c1), (s2, res2, c2) = levels[-2:]
-    before = _worst_slip(frame, space, rows, res1, c1)
-    now = _worst_slip(frame, space, rows, res2, c2)
-    if now is None or before is None:
-        return None
-    if s2 > SPRINGS[-1] and now.not_carried <= PERSISTS * before.not_carried:
+    (_, _, before), (softest, _, now) = levels[-2:]
+    if softest > SPRINGS[-1] and now.not_carried <= PERSISTS * before.not_carried:
         return None  # falling with the spring, the softer ones unsolved: undecided
     return now  # the softest spring's share: the load the contacts leave, from above
 

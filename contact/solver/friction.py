@@ -35,6 +35,7 @@ instead.
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -133,6 +134,15 @@ class FrictionResult:
 def _relative(f: NDArray, lam: NDArray, scale: float) -> float:
     """``max |F|`` (a force) over the larger of ``scale`` and the largest force."""
     return float(np.abs(f).max(initial=0.0)) / max(scale, float(np.abs(lam).max(initial=0.0)))
+
+
+def _measure(prob: NaturalMap, scale: float) -> Callable[[NDArray, NDArray], float]:
+    """``(lam, a) -> `` ``prob``'s residual relative to ``scale`` (:func:`_relative`)."""
+
+    def measure(lam: NDArray, a: NDArray) -> float:
+        return _relative(prob.residual(lam, a)[0], lam, scale)
+
+    return measure
 
 
 def _reduced_step(j: NDArray, f: NDArray, inactive: NDArray[np.bool_]) -> NDArray:
@@ -258,10 +268,7 @@ def _newton(
             lam[:k] = TOUCHING * max(load_scale, 1e-300)
     a = _placed(base, lam)
     scale = max(float(np.abs(base.cp * rhs[:k]).max(initial=0.0)), load_scale, 1e-300)
-
-    def measure(lam: NDArray, a: NDArray) -> float:
-        f, _ = base.residual(lam, a)
-        return _relative(f, lam, scale)
+    measure = _measure(base, scale)
 
     best = (measure(lam, a), lam, a)
     steps = 0
@@ -375,12 +382,7 @@ def _tresca(base: NaturalMap, best, measure, tol, budget: int):
     fs: list[NDArray] = []
     for _ in range(TRESCA):
         fixed = base.mu[base.fr] * x[base.fr]
-        tres = base.scaled(1.0, fixed)
-
-        def gap(lam: NDArray, a: NDArray, prob=tres) -> float:
-            f, _ = prob.residual(lam, a)
-            return _relative(f, lam, 1e-300)
-
+        gap = _measure(base.scaled(1.0, fixed), 1e-300)
         y, used = _strategies(base, fixed, lam, a, gap, tol, budget - n)
         n += used
         lam, a = y[1], y[2]
@@ -416,22 +418,13 @@ def _springs(base: NaturalMap, best, scale: float, tol, budget: int):
         prob = base.scaled(1.0, base.fixed, spring=spring)
         if prob.spring <= base.spring:
             break
-
-        def own(lam: NDArray, a: NDArray, prob=prob) -> float:
-            f, _ = prob.residual(lam, a)
-            return _relative(f, lam, scale)
-
-        x, used = _strategies(prob, prob.fixed, lam, a, own, tol, budget - n)
+        x, used = _strategies(prob, prob.fixed, lam, a, _measure(prob, scale), tol, budget - n)
         n += used
         lam, a = x[1], x[2]
         if n >= budget:
             break
 
-    def measure(lam: NDArray, a: NDArray) -> float:
-        f, _ = base.residual(lam, a)
-        return _relative(f, lam, scale)
-
-    x, used = _strategies(base, base.fixed, lam, a, measure, tol, budget - n)
+    x, used = _strategies(base, base.fixed, lam, a, _measure(base, scale), tol, budget - n)
     return x, n + used
 
 
