@@ -70,6 +70,10 @@ GOAL = 1.0
 #: The goal of the whole frame: at most this multiple of one factorisation and solve.
 FRAME_GOAL = 2.0
 
+#: Presses quicker than this (s) are timed ``REPEAT`` times, the fastest kept.
+QUICK_PRESS = 1.0
+REPEAT = 3
+
 #: Cache of the generated meshes (VTU, megabytes each: kept out of the repository).
 MESHES = Path(tempfile.gettempdir()) / "fem-benchmark-patch-meshes"
 
@@ -138,11 +142,20 @@ def _press(mesh: fem.Mesh, depth: float) -> tuple[ElasticBody, list[Plane], dict
 
 
 def run_case(mesh: fem.Mesh, fine_size: float, depth: float) -> dict:
-    """One press of one mesh: a row of the study (see ``COLUMNS``)."""
+    """One press of one mesh: a row of the study (see ``COLUMNS``).
+
+    A press under :data:`QUICK_PRESS` seconds is timed :data:`REPEAT` times and its
+    fastest run kept, as the plain factorisation and solve it is set against is.
+    """
     body, planes, secs, res = _press(mesh, depth)
+    if secs["assemble"] + secs["solve"] < QUICK_PRESS:
+        for _ in range(REPEAT - 1):
+            again = _press(mesh, depth)
+            if again[2]["solve"] < secs["solve"]:
+                body, planes, secs, res = again
     factor = body.solver.factor_time
     contact = secs["solve"] - factor
-    plain = plain_seconds([body], repeat=2)
+    plain = plain_seconds([body], repeat=REPEAT if secs["solve"] < QUICK_PRESS else 2)
     patch = measure_contact_patch(
         mesh, res, planes[0], center=np.zeros(3), fraction=0.25, edge_cells=2.0
     )

@@ -199,7 +199,9 @@ class ElasticBody:
         """Sorted nodes of the contact faces."""
         return self.contact_faces.nodes
 
-    def mark_zone(self, nodes: ArrayLike, nearness: ArrayLike) -> int:
+    def mark_zone(
+        self, nodes: ArrayLike, nearness: ArrayLike, touched: ArrayLike | None = None
+    ) -> int:
         """Mark a contact zone for partial solves, if the body is not factored yet.
 
         Parameters
@@ -210,6 +212,10 @@ class ElasticBody:
             How near each is to contact (smaller first: a gap, m); where the zone would
             pass the solver's capacity (:meth:`fem.StaticSolver.mark_capacity`), the
             nearest nodes are marked.
+        touched : array_like of bool, shape (k, 3), optional
+            The components of each node that contact rows can touch (default: all);
+            a node listed twice gets the union. Marked DOFs make the factorisation
+            dearer (they are ordered last, a dense trailing block): only these are.
 
         Returns
         -------
@@ -219,11 +225,20 @@ class ElasticBody:
         nodes = np.asarray(nodes, dtype=np.int64).ravel()
         if self.solver.factored or not nodes.size:
             return 0
+        comp = np.ones((nodes.size, 3), dtype=bool)
+        if touched is not None:
+            comp = np.broadcast_to(np.asarray(touched, dtype=bool), (nodes.size, 3))
         order = np.argsort(np.asarray(nearness, dtype=np.float64).ravel(), kind="stable")
-        nodes = nodes[order]
-        nodes = nodes[np.sort(np.unique(nodes, return_index=True)[1])]  # nearest first
-        nodes = nodes[: self.solver.mark_capacity() // 3]
-        return int(nodes.size) if self.solver.mark(fem.node_dofs(nodes)) else 0
+        nodes, comp = nodes[order], comp[order]
+        uniq, first, inv = np.unique(nodes, return_index=True, return_inverse=True)
+        mask = np.zeros((uniq.size, 3), dtype=bool)
+        np.logical_or.at(mask, inv, comp)
+        near = np.argsort(first)  # nearest first
+        uniq, mask = uniq[near], mask[near]
+        keep = np.cumsum(mask.sum(axis=1)) <= self.solver.mark_capacity()
+        uniq, mask = uniq[keep], mask[keep]
+        dofs = (3 * uniq[:, None] + np.arange(3))[mask]
+        return int(uniq.size) if self.solver.mark(dofs) else 0
 
     def support_forces(self, reactions: NDArray[np.float64]) -> dict[str, NDArray[np.float64]]:
         """Total reaction force ``(3,)`` on each support group (N), from nodal reactions."""

@@ -130,20 +130,20 @@ class FrameState:
             u.update({k: np.asarray(v) for k, v in start.items() if k in u})
         self.driven.touch(u)
         # candidate nodes of each body's zone, with how near they are (smaller first)
-        zone: dict[str, list[tuple[NDArray[np.int64], NDArray[np.float64]]]] = {
-            b.name: [] for b in self.bodies
-        }
+        # and the components their rows can touch
+        zone: dict[str, list[tuple[NDArray, NDArray, NDArray]]] = {b.name: [] for b in self.bodies}
+        every = np.ones(3, dtype=bool)
         for name, nodes in (extra or {}).items():
             if name in zone and len(nodes):
                 n = np.unique(np.asarray(nodes, dtype=np.int64))
-                zone[name].append((n, np.full(n.size, -np.inf)))
+                zone[name].append((n, np.full(n.size, -np.inf), every))
         for i, pair in enumerate(self.pairs):
             if i in self.mortar:
                 cand = self.mortar[i]
                 sides = ((pair.slave, cand.rows.s_nodes), (pair.master, cand.rows.m_nodes))
                 for body, nodes in sides:
                     n = np.unique(nodes[nodes >= 0])  # type: ignore[union-attr]
-                    zone[body.name].append((n, np.full(n.size, -np.inf)))
+                    zone[body.name].append((n, np.full(n.size, -np.inf), every))
                 continue
             wide = 3.0 * self.margin
             p = self.measure_pair(i, u, wide)
@@ -161,7 +161,7 @@ class FrameState:
             near, gap = p.nodes[sel], p.gap[sel]
             if not near.size:
                 continue
-            zone[slave.name].append((near, gap))
+            zone[slave.name].append((near, gap, pair.touched))
             if not pair.rigid:
                 master: ElasticBody = pair.master  # type: ignore[assignment]
                 used = master.contact_nodes
@@ -171,11 +171,12 @@ class FrameState:
                     self.local[slave.name][near],
                     master.mesh.points[used],
                 )
-                zone[master.name].append((used[ok], dist[ok]))
+                zone[master.name].append((used[ok], dist[ok], every))
         for b in self.bodies:
-            if zone[b.name]:
-                nodes, near = (np.concatenate(x) for x in zip(*zone[b.name], strict=True))
-                marked = b.mark_zone(nodes, near)
+            if parts := zone[b.name]:
+                nodes, near = (np.concatenate(x) for x in list(zip(*parts, strict=True))[:2])
+                touched = np.concatenate([np.broadcast_to(t, (n.size, 3)) for n, _, t in parts])
+                marked = b.mark_zone(nodes, near, touched)
                 log.debug("%s: %d contact-zone nodes marked", b.name, marked)
         self.timings["geometry"] += time.perf_counter() - t
         before = {b.name: b.solver.factor_time for b in self.bodies}
@@ -365,13 +366,21 @@ class FrameState:
 
         :func:`contact.solver.held.touches_nothing` for the last solve of the normal rows
         ``rows`` (forces ``lam``): a body moved when its rigid motion passes the gap
-        tolerance times its largest element size.
+        tolerance times its largest element size. A row pushes when its force passes
+        round-off: 1e-10 of the force its own stiffness (the diagonal of ``K`` along it,
+        an upper bound of its inverse compliance) takes to close the deepest gap.
         """
         moves = held.slides(self.bodies, states)
         gap = held.end_gaps(rows.g0, e, states)
         tol = self.row_tol(rows)
         still = {n: self.settings.gap_tolerance * float(self.local[n].max()) for n in moves}
-        return held.touches_nothing(e, lam, gap, tol, moves, still)
+        m = lam.size
+        stiff = np.zeros(m)
+        for b in self.bodies:
+            if (eb := e.get(b.name)) is not None:
+                stiff += eb[:m].multiply(eb[:m]) @ b.stiffness.diagonal()
+        small = 1e-10 * float(np.abs(rows.g0).max(initial=0.0)) * stiff
+        return held.touches_nothing(e, lam, gap, tol, moves, still, small)
 
     def result(
         self,

@@ -94,6 +94,7 @@ def touches_nothing(
     tol: NDArray[np.float64],
     moves: Mapping[str, NDArray[np.float64]],
     still: Mapping[str, float],
+    small: NDArray[np.float64] | None = None,
 ) -> str:
     """The stop reason of a free body that no contact pushes at the end, or "" if none.
 
@@ -118,12 +119,15 @@ def touches_nothing(
         The free bodies' rigid translations (:func:`slides`).
     still : mapping of str to float
         Each free body's motion (m) below which it did not move.
+    small : ndarray, shape (m,), optional
+        Each row's force (N) at or below which it does not push: round-off (default 0).
     """
     m = lam.size
+    small = np.zeros(m) if small is None else small
     for name, move in moves.items():
         eb = e.get(name)
         mine = eb[:m].getnnz(axis=1) > 0 if eb is not None and m else np.zeros(m, bool)
-        if (mine & (lam > 0)).any():
+        if (mine & (lam > small)).any():
             continue
         dist = float(np.linalg.norm(move))
         if dist <= still[name] and (mine & (gap <= tol)).any():

@@ -103,6 +103,18 @@ class ContactPair:
         """
         return self.loose or self.friction > 0
 
+    @property
+    def touched(self) -> NDArray[np.bool_]:
+        """Which displacement components ``(3,)`` of a slave node its rows can touch.
+
+        A frictionless pair against a plane has one row per node along the plane's
+        normal: the normal's nonzero components (one, for a plane across an axis). Any
+        other pair: all three (tangential rows, or a master's normals that vary).
+        """
+        if self.rigid and not self.friction:
+            return self.master.normal != 0.0  # type: ignore[union-attr]
+        return np.ones(3, dtype=bool)
+
     @cached_property
     def candidates(self) -> NDArray[np.int64]:
         """Slave nodes that can touch.

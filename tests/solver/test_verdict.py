@@ -93,7 +93,8 @@ def test_a_ball_one_plane_pushes_with_nothing_behind_touches_nothing():
         assert not res.converged and res.held is False, algorithm
         assert res.stop_reason.startswith("not held: ball touches nothing (moved 1 mm along (")
         assert along(res.stop_reason) == pytest.approx([0.0, 0.0, 1.0], abs=1e-3)
-        assert np.abs(res.total_contact_force("ball")).max() == 0.0
+        # round-off of the press's force scale (E R d = 2 N)
+        assert np.abs(res.total_contact_force("ball")).max() <= 1e-12
 
 
 def test_a_ball_two_plates_touch_before_they_press_is_left_alone():
