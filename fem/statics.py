@@ -26,10 +26,10 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
+from .constraintrows import ConstraintRows
 from .errors import SolverError
 from .linsolve import Factorization, factorize, resolve_backend
 from .saddle import (
-    ConstraintRows,
     check_balance,
     constraint_matrix,
     determinate_support,
@@ -93,21 +93,20 @@ class StaticSolver:
     backend : str
         Linear solver name (see :func:`fem.factorize`).
     hold_rotation : bool
-        Free body only: the extra constraints place it by its three translations, its
-        rotations are held at zero (and the moment the constraints and loads leave is
-        not resolved). Frictionless contact on a ball cannot turn it: its spin is held
-        only by discretisation effects, which a linear solve turns into large spurious
-        rotations.
+        Free body only: the extra constraints place it by its translations, its rotations
+        held at zero (the moment they and the loads leave is not resolved): frictionless
+        contact on a ball holds its spin only by discretisation effects, which a linear
+        solve turns into large spurious rotations.
     lazy : bool
         Factor on first use (or :meth:`factorize`) instead of now, so that the DOFs
         where constraints will act can be marked first (:meth:`mark`).
 
     Notes
     -----
-    Marked DOFs (:meth:`mark`) are ordered last by the factorisation (PARDISO), and the
-    compliance of constraint rows on them comes from partial solves through the trailing
-    block of the factor: for a contact zone of a few hundred nodes, each row costs a
-    small fraction of a back-solve.
+    Marked DOFs (:meth:`mark`) are ordered last by the factorisation (PARDISO): the
+    compliance of constraint rows on them comes from its trailing block; a row off them
+    costs a back-solve, and once those have cost a factorisation, they are marked too
+    and the body refactored (:mod:`fem.constraintrows`).
 
     Examples
     --------
@@ -176,12 +175,14 @@ class StaticSolver:
         self.n_partial_solves = 0
         self.n_factorizations = 0
         self.factor_time = 0.0
+        self._last_factor = 0.0
         self._factorization: Factorization | None = None
         self._marks = np.zeros(0, np.int64)
         self._jphi: NDArray[np.float64] | None = None
         # loads to solve with the factorisation, and their answer once solved
         self._anticipated: tuple[NDArray, NDArray | None] | None = None
-        self._reset_rows()
+        # the constraint rows kept: a new factorisation answers them anew
+        self._constraints: ConstraintRows | None = None
         if not lazy:
             self.factorize()
 
@@ -205,7 +206,8 @@ class StaticSolver:
             rhs = np.hstack(cols) if cols else None
             f = factorize(self._to_factor, self.backend, marked=self._marks, rhs=rhs)
             self._factorization = f
-            self.factor_time += time.perf_counter() - t
+            self._last_factor = time.perf_counter() - t
+            self.factor_time += self._last_factor
             self.n_factorizations += 1
             self._jphi = None
             if f.first is not None:
@@ -215,7 +217,7 @@ class StaticSolver:
                 if known is not None:
                     self._anticipated = (known[0], self._finish(known[0], f.first[:, -1]))
                 self.n_back_solves += f.first.shape[1]
-            self._reset_rows()
+            self._constraints = None
         return self
 
     @property
@@ -241,9 +243,7 @@ class StaticSolver:
     @property
     def prescribed_rows(self) -> sp.csr_matrix:
         """Rows ``K21 | K22`` of the prescribed DOFs (kept): their reactions are ``K_p u - f_p``."""
-        if self.free_body:
-            return sp.csr_matrix((0, self.n))
-        return self._k_pres
+        return sp.csr_matrix((0, self.n)) if self.free_body else self._k_pres
 
     @property
     def factored(self) -> bool:
@@ -272,7 +272,10 @@ class StaticSolver:
         if d.size and (d.min() < 0 or d.max() >= self.n):
             raise SolverError(f"marked DOFs must lie in 0..{self.n - 1}")
         rows = self._frow_of(d)
-        rows = np.unique(rows[rows >= 0])
+        return self._mark_rows(rows[rows >= 0], limit)
+
+    def _mark_rows(self, rows: NDArray[np.int64], limit: int | None = None) -> bool:
+        """:meth:`mark` of rows of the factored matrix."""
         union = np.union1d(self._marks, rows)
         if self.backend != "pardiso" or union.size > self.mark_capacity(limit):
             return False
@@ -356,25 +359,28 @@ class StaticSolver:
         return self._schur_of(e)[0]
 
     def _schur_of(self, e: sp.csr_matrix) -> tuple[NDArray, NDArray | None]:
-        """Compliance of constraint rows (see :class:`fem.saddle.ConstraintRows`).
+        """Compliance of constraint rows (see :class:`fem.constraintrows.ConstraintRows`).
 
         Also, for a free body, the rows' values ``E Phi`` of the placing rigid modes.
         """
+        rows = free_columns(e, self._pos, self.free.size)
         self.factorize()
-        if self._constraints is None:
-            free = self.free_body
-            self._constraints = ConstraintRows(
-                self._counted_inverse,
-                self._partial_solve,
-                self._frow,
-                self._fact.marked,
-                self._to_factor.shape[0],
-                modes=self.modes if free else None,
-                j_phi=self._j_phi if free else None,
-            )
-        s = self._constraints.compliance(free_columns(e, self._pos, self.free.size))
-        e_phi = (e @ self.placing_modes) if self.free_body else None
-        return s, e_phi
+        s = None  # None: rows off the marks widened them (refactored): ask again
+        while s is None:
+            if self._constraints is None:
+                self._constraints = ConstraintRows(
+                    self._counted_inverse,
+                    self._partial_solve,
+                    self._frow,
+                    self._fact.marked,
+                    self._to_factor.shape[0],
+                    modes=self.modes if self.free_body else None,
+                    j_phi=self._j_phi if self.free_body else None,
+                    widen=self._mark_rows,
+                    buy=self._last_factor,
+                )
+            s = self._constraints.compliance(rows)
+        return s, (e @ self.placing_modes) if self.free_body else None
 
     def _counted_inverse(self, r: NDArray[np.float64]) -> NDArray[np.float64]:
         """:meth:`apply_inverse` of columns ``(n_free, k)``, counted as back-solves."""
@@ -396,10 +402,6 @@ class StaticSolver:
             self.n_back_solves += self.modes.shape[1]
             self._jphi = x
         return self._jphi
-
-    def _reset_rows(self) -> None:
-        """Forget the constraint rows kept: a new factorisation answers them anew."""
-        self._constraints: ConstraintRows | None = None
 
     # --- the solve -------------------------------------------------------------------
 
@@ -488,9 +490,7 @@ class StaticSolver:
 
     def _values(self, values: ArrayLike | None) -> NDArray[np.float64]:
         npres = self.prescribed.size
-        if values is None:
-            return np.zeros(npres)
-        v = np.asarray(values, dtype=np.float64)
+        v = np.zeros(npres) if values is None else np.asarray(values, dtype=np.float64)
         if v.shape == (self.n,):
             return v[self.prescribed]
         if v.shape != (npres,):

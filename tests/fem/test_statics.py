@@ -190,7 +190,7 @@ def test_backends_agree(body):
 
 def test_row_cache_overflow_starts_afresh(body, monkeypatch):
     mesh, k = body
-    monkeypatch.setattr(fem.saddle, "ROW_CACHE", 10)
+    monkeypatch.setattr(fem.constraintrows, "ROW_CACHE", 10)
     base = fem.node_dofs(np.flatnonzero(np.isclose(mesh.points[:, 0], mesh.points[:, 0].min())))
     others = np.setdiff1d(np.arange(k.shape[0]), base)
     solver = fem.StaticSolver(k, base)
