@@ -30,15 +30,30 @@ __all__ = ["graded_octant_surface", "graded_tet_octant", "octant_sizing_field"]
 
 def _size_at(
     x: NDArray[np.float64],
-    pole: NDArray[np.float64],
+    center: NDArray[np.float64],
+    radius: float,
     fine_size: float,
     fine_radius: float,
     coarse_size: float,
     growth: float,
+    depth_growth: float | None = None,
 ) -> NDArray[np.float64]:
-    """Target edge length at the points ``x``: fine near the pole, growing linearly."""
-    d = np.linalg.norm(x - pole, axis=1)
-    return np.minimum(fine_size + (growth - 1.0) * np.maximum(d - fine_radius, 0.0), coarse_size)
+    """Target edge length at the points ``x``: fine near the pole, growing linearly.
+
+    With ``depth_growth``, the distance to the pole is that of the point's radial
+    projection onto the sphere, and the size also grows with the depth below it.
+    """
+    pole = center - np.array([0.0, 0.0, radius])
+    if depth_growth is None:
+        d = np.linalg.norm(x - pole, axis=1)
+        extra = 0.0
+    else:
+        r = np.linalg.norm(x - center, axis=1)
+        out = (x - center) / np.maximum(r, 1e-300)[:, None]
+        d = np.linalg.norm(center + radius * out - pole, axis=1)
+        extra = (depth_growth - 1.0) * np.maximum(radius - r, 0.0)
+    h = fine_size + (growth - 1.0) * np.maximum(d - fine_radius, 0.0) + extra
+    return np.minimum(h, coarse_size)
 
 
 def graded_octant_surface(
@@ -83,6 +98,7 @@ def octant_sizing_field(
     *,
     coarse_size: float | None = None,
     growth: float = 1.3,
+    depth_growth: float | None = None,
     center: ArrayLike = (0.0, 0.0, 0.0),
 ) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]]:
     """A background tetrahedral mesh of the octant with target edge lengths at its nodes.
@@ -95,6 +111,10 @@ def octant_sizing_field(
         Largest edge length; ``radius / 5`` by default.
     growth : float
         Edge length gained per unit of distance beyond the fine zone is ``growth - 1``.
+    depth_growth : float, optional
+        A fine surface layer instead of a fine solid zone: the distance to the pole is
+        measured on the sphere, and ``depth_growth - 1`` is gained per unit of depth
+        below it (None: no growth with depth).
     center : array_like, shape (3,)
 
     Returns
@@ -119,8 +139,7 @@ def octant_sizing_field(
     box = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
     pts = np.concatenate([nodes, box])
     tets = Delaunay(pts).simplices.astype(np.int64)
-    pole = c - np.array([0.0, 0.0, radius])
-    values = _size_at(pts, pole, fine_size, fr, coarse, growth)
+    values = _size_at(pts, c, radius, fine_size, fr, coarse, growth, depth_growth)
     return pts, tets, values
 
 
@@ -131,6 +150,8 @@ def graded_tet_octant(
     *,
     coarse_size: float | None = None,
     growth: float = 1.3,
+    depth_growth: float | None = None,
+    surface_size: float | None = None,
     center: ArrayLike = (0.0, 0.0, 0.0),
     epsilon: float = 1e-3,
     **tetwild_options: object,
@@ -149,6 +170,15 @@ def graded_tet_octant(
         Largest edge length (m); ``radius / 5`` by default.
     growth : float
         Beyond the fine zone the target grows by ``growth - 1`` per unit of distance.
+    depth_growth : float, optional
+        A fine surface layer: the target also grows by ``depth_growth - 1`` per unit of
+        depth below the sphere (see :func:`octant_sizing_field`). Few nodes lie below a
+        fine contact patch: its rows grow faster than the DOFs.
+    surface_size : float, optional
+        Edge length at the pole of the surface handed to fTetWild (``fine_size`` by
+        default), which refines it as the field asks: a coarser one is quicker to make
+        (its brick octant is fine in a solid zone) and within ``surface_size**2 / (8
+        radius)`` of the sphere, where the boundary nodes are snapped.
     center : array_like, shape (3,)
     epsilon : float
         fTetWild's envelope, relative to the bounding box's diagonal.
@@ -170,11 +200,20 @@ def graded_tet_octant(
     if not growth > 1.0:
         raise MeshError(f"growth must exceed 1, got {growth!r}")
     c = np.asarray(center, dtype=np.float64)
-    surface = graded_octant_surface(
-        radius, fine_size, fine_radius, coarse_size=coarse_size, center=c
-    )
+    if depth_growth is not None and not depth_growth > 1.0:
+        raise MeshError(f"depth_growth must exceed 1, got {depth_growth!r}")
+    fs = fine_size if surface_size is None else surface_size
+    if not fine_size <= fs <= (radius / 5 if coarse_size is None else coarse_size):
+        raise MeshError(f"surface_size must lie in [fine_size, coarse_size], got {fs!r}")
+    surface = graded_octant_surface(radius, fs, fine_radius, coarse_size=coarse_size, center=c)
     field = octant_sizing_field(
-        radius, fine_size, fine_radius, coarse_size=coarse_size, growth=growth, center=c
+        radius,
+        fine_size,
+        fine_radius,
+        coarse_size=coarse_size,
+        growth=growth,
+        depth_growth=depth_growth,
+        center=c,
     )
     # fTetWild scales its ideal edge length down where the field asks: give it the largest
     coarse = radius / 5 if coarse_size is None else coarse_size

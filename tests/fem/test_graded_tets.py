@@ -32,6 +32,27 @@ def test_sizing_field_covers_octant_and_grades():
     assert (lo < C - np.array([0, 0, R])).all() and (hi > C + np.array([R, R, 0])).all()
 
 
+def test_a_layered_sizing_field_is_fine_on_the_sphere_and_grows_with_depth():
+    from fem.graded_tets import _size_at
+
+    pole = C - np.array([0.0, 0.0, R])
+    below = pole + np.array([[0.0, 0.0, t] for t in (0.0, 0.1, 0.3)])  # straight inwards
+    h = _size_at(below, C, R, 0.01, 0.2, R / 5, 1.3, depth_growth=1.5)
+    assert h == pytest.approx([0.01, 0.01 + 0.5 * 0.1, 0.01 + 0.5 * 0.3])
+    # on the sphere: fine within 0.2 of the pole, growing by 0.3 per unit beyond
+    ang = np.array([0.1, 0.5])
+    on = C + R * np.column_stack([np.sin(ang), 0 * ang, -np.cos(ang)])
+    chord = 2 * R * np.sin(ang / 2)
+    want = 0.01 + 0.3 * np.maximum(chord - 0.2, 0.0)
+    assert _size_at(on, C, R, 0.01, 0.2, R / 5, 1.3, depth_growth=1.5) == pytest.approx(want)
+    # the solid zone of old: the same point below the pole is fine within 0.2
+    assert _size_at(below, C, R, 0.01, 0.2, R / 5, 1.3)[:2] == pytest.approx([0.01, 0.01])
+    with pytest.raises(fem.MeshError, match="depth_growth"):
+        graded_tet_octant(R, 0.05, 0.2, depth_growth=1.0)
+    with pytest.raises(fem.MeshError, match="surface_size"):
+        graded_tet_octant(R, 0.05, 0.2, surface_size=0.01)
+
+
 def test_bad_sizes_raise():
     with pytest.raises(fem.MeshError):
         graded_tet_octant(R, 0.0, 0.2)
