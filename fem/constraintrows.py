@@ -22,7 +22,7 @@ from .saddle import csr_entries
 
 __all__ = ["BLOCK", "ROW_CACHE", "ConstraintRows"]
 
-#: Columns of back-solves done at once when building a Schur complement.
+#: Back-solves done at once when building a Schur complement (rows on the marks: all).
 BLOCK = 256
 #: Constraint rows whose mutual compliance is kept (a dense square of this size at most).
 ROW_CACHE = 8192
@@ -42,7 +42,8 @@ class ConstraintRows:
     inverse : callable
         ``C r`` of columns ``(n_free, k)`` over the free DOFs: full back-solves.
     partial : callable
-        The factor's partial solve of columns ``(n_marked, k)`` on the marked rows.
+        The factor's partial solve of columns ``(n_marked, k)`` on the marked rows (given
+        sparse, answered dense).
     frow : ndarray of int, shape (n_free,)
         Row of the factored matrix of each free DOF (-1: a free body's support DOF).
     marked : ndarray of int
@@ -133,8 +134,12 @@ class ConstraintRows:
             else:
                 first = {k: i for i, k in reversed(list(enumerate(keys)))}
                 rows = ef[[first[k] for k in new]]
-            for j in range(0, rows.shape[0], BLOCK):
-                if not self._add_rows(rows[j : j + BLOCK]):
+            # pieces of at most BLOCK rows off the marks (back-solves, rent checked
+            # between them); rows on the marks need no such cut
+            off = np.flatnonzero(~self._on_marks(rows)[1])
+            cuts = [0, *off[BLOCK::BLOCK].tolist(), rows.shape[0]]
+            for a, b in pairwise(cuts):
+                if not self._add_rows(rows[a:b]):
                     return None
             for k in new:
                 self._row_index[k] = len(self._row_index)
@@ -217,7 +222,7 @@ class ConstraintRows:
         body: see the class's notes. Rows of the result for kept rows off the marks are
         meaningless.
         """
-        z = self._partial(rows_m.T.toarray())
+        z = self._partial(rows_m.T)  # sparse: a gather of the inverse, once it is made
         cross = self._rows_m @ z
         if self._modes is not None and self._j_phi is not None:
             phi, jphi = self._modes, self._j_phi()

@@ -99,9 +99,12 @@ class _Pardiso:
         self._work: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
         self._mask = np.zeros(self.n, dtype=np.int32)
         m = self.marked.size
-        # the marked block's Schur complement, dense, and its Cholesky (made on first use)
+        # the marked block's Schur complement, dense, and its Cholesky (made on first use),
+        # then its inverse (once the columns asked pass a third of its size)
         self._schur: NDArray[np.float64] | None = None
         self._schur_cho: tuple[NDArray[np.float64], bool] | None = None
+        self._schur_inv: NDArray[np.float64] | None = None
+        self._schur_cols = 0
         out = np.zeros(self.n)
         if m:
             self._mask[self.marked] = 1
@@ -202,29 +205,26 @@ class _Pardiso:
             self._s.iparm[30] = 0
         return np.ascontiguousarray(x)
 
-    def solve_marked(self, b: NDArray[np.float64]) -> NDArray[np.float64]:
+    def solve_marked(self, b: NDArray[np.float64] | sp.spmatrix) -> NDArray[np.float64]:
         """The solution on the marked DOFs of a right-hand side nonzero only on them.
 
         ``b`` has shape ``(m,)`` or ``(m, k)``, one row per marked DOF (in the sorted
-        order of :attr:`marked`); so has the result.
+        order of :attr:`marked`), dense or sparse; the result is dense, of its shape.
 
         PARDISO reads and writes full-length vectors even here: they are kept between
         calls (the columns taken in chunks of at most :data:`PARTIAL_COLUMNS`, and of
         :data:`PARTIAL_WORK` values), so a call touches little fresh memory and writes
         only the marked rows of a right-hand side that stays zero elsewhere.
         """
-        b = np.asarray(b, dtype=np.float64)
+        if not sp.issparse(b):
+            b = np.asarray(b, dtype=np.float64)
         m = self.marked.size
         if b.shape[0] != m or b.ndim not in (1, 2):
             raise SolverError(f"partial solve: expected {m} rows (the marked DOFs), got {b.shape}")
         if self._schur is not None:
-            import scipy.linalg as sla
-
-            if self._schur_cho is None:  # in place: one dense block kept
-                self._schur_cho = sla.cho_factor(
-                    self._schur, lower=True, overwrite_a=True, check_finite=False
-                )
-            return sla.cho_solve(self._schur_cho, b, check_finite=False)
+            return self._schur_solve(b)
+        if sp.issparse(b):
+            b = b.toarray()
         cols = b.reshape(m, -1)
         k = cols.shape[1]
         out = np.empty((m, k))
@@ -242,6 +242,37 @@ class _Pardiso:
             self._s.iparm[30] = 0
         return out[:, 0] if b.ndim == 1 else out
 
+    def _schur_solve(self, b: NDArray[np.float64] | sp.spmatrix) -> NDArray[np.float64]:
+        """``S^-1 b`` from the marked block's Schur complement ``S`` (kept, replaced in place).
+
+        Its Cholesky answers a column in ``2 m^2`` flops. Once the columns asked pass
+        ``m / 3`` (their cost that of the inverse, ``2 m^3 / 3``), the inverse is made
+        from it and kept: a sparse column (a contact row: a few entries) then costs a
+        gather of as many of its columns.
+        """
+        import scipy.linalg as sla
+
+        if self._schur_inv is None:
+            if self._schur_cho is None:  # in place: one dense block kept
+                self._schur_cho = sla.cho_factor(
+                    self._schur, lower=True, overwrite_a=True, check_finite=False
+                )
+            self._schur_cols += 1 if b.ndim == 1 else b.shape[1]
+            m = self.marked.size
+            if 3 * self._schur_cols <= m:
+                dense = b.toarray() if sp.issparse(b) else b
+                return sla.cho_solve(self._schur_cho, dense, check_finite=False)
+            low, info = sla.lapack.dpotri(self._schur_cho[0], lower=1, overwrite_c=1)
+            if info != 0:
+                raise SolverError(f"the marked block's inverse failed (LAPACK info {info})")
+            full = _lower_to_full(low)  # LAPACK's column order: its transpose is C order
+            self._schur_inv = self._schur = full.T if full.flags.f_contiguous else full
+            self._schur_cho = None
+        if sp.issparse(b):
+            out = (sp.csr_matrix(b.T) @ self._schur_inv).T  # S^-1 symmetric
+            return np.ascontiguousarray(out).reshape(b.shape)
+        return self._schur_inv @ b
+
     def _partial_work(self, k: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Kept right-hand side (zero off the marks) and solution arrays, ``(n, >= k)``."""
         work = self._work
@@ -257,6 +288,17 @@ class _Pardiso:
                 s.free_memory(everything=True)
             except Exception:  # never raise from a destructor
                 pass
+
+
+def _lower_to_full(a: NDArray[np.float64], block: int = 512) -> NDArray[np.float64]:
+    """The symmetric matrix whose lower triangle ``a`` holds, made in place (by blocks)."""
+    m = a.shape[0]
+    for j in range(0, m, block):
+        e = min(j + block, m)
+        d = a[j:e, j:e]
+        d[np.triu_indices(e - j, 1)] = d.T[np.triu_indices(e - j, 1)]
+        a[j:e, e:] = a[e:, j:e].T
+    return a
 
 
 def _new_pardiso(pypardiso: object) -> object:

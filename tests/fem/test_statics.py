@@ -307,6 +307,32 @@ def test_partial_solves_in_chunks_keep_their_work_arrays(body, monkeypatch):
         f.solve_marked(np.ones(marked.size + 1))
 
 
+@pytest.mark.skipif("pardiso" not in BACKENDS, reason="partial solves need PARDISO")
+def test_past_a_third_of_the_marked_columns_the_schur_inverse_answers_sparse_or_dense(body):
+    """The marked block's Cholesky answers the first columns; once they pass a third of
+    the marks, its inverse, made once: the same numbers, for sparse and dense columns."""
+    mesh, k = body
+    held = fem.node_dofs(np.flatnonzero(mesh.points[:, 0] == 0))
+    free = np.setdiff1d(np.arange(k.shape[0]), held)
+    a = k[free][:, free].tocsr()
+    marked = np.arange(0, a.shape[0], 2)
+    want = np.linalg.inv(a.toarray())[np.ix_(marked, marked)]
+    f = fem.factorize(a, "pardiso", marked=marked)
+    m = marked.size
+    first = sp.identity(m, format="csc")[:, : m // 4]  # unit columns, as contact rows are
+    np.testing.assert_allclose(f.solve_marked(first), want[:, : m // 4], rtol=1e-9, atol=1e-14)
+    assert f._schur_inv is None  # a quarter of the columns: the Cholesky
+    q = m // 4
+    rest = sp.csc_matrix(np.eye(m)[:, q : 2 * q] - 0.5 * np.eye(m)[:, :q])
+    np.testing.assert_allclose(
+        f.solve_marked(rest), want @ rest.toarray(), rtol=1e-9, atol=1e-12 * abs(want).max()
+    )
+    assert f._schur_inv is not None  # past a third: the inverse, kept
+    b = np.random.default_rng(1).standard_normal(m)
+    np.testing.assert_allclose(f.solve_marked(b), want @ b, rtol=1e-9, atol=1e-12 * abs(want).max())
+    np.testing.assert_allclose(f._schur_inv, f._schur_inv.T, rtol=0, atol=0)
+
+
 def test_the_marked_block_s_schur_complement_answers_partial_solves(body, monkeypatch):
     """Up to SCHUR_MAX marked DOFs, PARDISO's Schur complement of the marked block (its
     dense Cholesky) answers the partial solves: the dense inverse on the marks; full solves
