@@ -142,7 +142,7 @@ def mesh_of(
             depth_growth=LAYER_GROWTH,
             surface_size=max(fine_size, LAYER_SURFACE),
             center=(0.0, 0.0, RADIUS),
-            epsilon=min(1e-3, fine_size / 15),
+            epsilon=min(1e-3, float(f"{fine_size / 15:.2g}")),
         )
     else:
         mesh = graded_tet_octant(RADIUS, fine_size, fr, center=(0.0, 0.0, RADIUS))

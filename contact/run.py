@@ -319,10 +319,14 @@ class GraspRun:
         With force-driven fingers, the frame is solved at the angles
         :func:`contact.fingerforce.drive` tries, each trial from the same history.
         """
+        t0 = time.perf_counter()
         angles = self.angles(t) if self.hand is not None else {}
+        posing = time.perf_counter() - t0  # set-up too: the automatic flexions' search
         targets = self._targets(t)
         if not targets:
-            return self._solve_pose(t, angles, callback)
+            out = self._solve_pose(t, angles, callback)
+            out[0].timings["setup"] += posing
+            return out
         # every trial from the same history, its flesh relaxed from the same pose
         kept = (self.anchors, dict(self.positions), self._pose, dict(self._rolls))
 
@@ -337,6 +341,7 @@ class GraspRun:
         out, angles, drives = drive(trial, touching, pressed, targets)
         remember(self._fingers, t, touching, drives)
         result, extra, planes, bodies = out
+        result.timings["setup"] += posing
         for j, d in drives.items():
             self.auto_flexed[j] = {**self.auto_flexed[j], "angle": d.angle, **d.record()}
         extra["auto_flexion"] = self.auto_flexed
