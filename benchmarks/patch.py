@@ -20,8 +20,9 @@ a cProfile of the largest run's contact solve. For the slope, layered octants to
 (:data:`LAYERED`: fine in a surface layer only), whose patches reach about 5,000 rows on
 a few 10k DOFs.
 
-fTetWild takes minutes on the largest mesh and differs from run to run: the meshes are
-cached as VTU files in the temporary folder (:data:`MESHES`), keyed by their
+fTetWild takes minutes on the largest graded mesh, a quarter of an hour or more on the
+finer layered ones (their envelope is tight), and differs from run to run: the meshes
+are cached as VTU files in the temporary folder (:data:`MESHES`), keyed by their
 parameters, and never committed. Run ``python -m benchmarks.patch [--quick]``.
 """
 
@@ -76,7 +77,7 @@ LAYER_FINE_RADIUS = 0.22
 LAYER_GROWTH = 1.3
 #: Edge length at the pole of the surface handed to fTetWild (it refines it).
 LAYER_SURFACE = 0.012
-LAYER_DEPTHS = (0.01, 0.03)
+LAYER_DEPTHS = (0.01, 0.02, 0.03)
 #: The goal of the contact phase: at most this multiple of assembly + factorisation.
 GOAL = 1.0
 #: The goal of the whole frame: at most this multiple of one factorisation and solve.
