@@ -17,7 +17,7 @@ Accuracy against Hertz for the solver's own force (contact radius, peak pressure
 :func:`~contact.cases.hertz.measure_contact_patch`) and the force against Hertz's for the
 approach ``d``. Then the log-log slope of the contact phase against the contact rows and
 a cProfile of the largest run's contact solve. For the slope, layered octants too
-(:data:`LAYERED`: fine in a surface layer only), whose patches reach about 5,000 rows on
+(:data:`LAYERED`: fine in a surface layer only), whose patches reach about 6,000 rows on
 a few 10k DOFs.
 
 fTetWild takes minutes on the largest graded mesh, a quarter of an hour or more on the
@@ -70,7 +70,7 @@ DEPTHS: dict[bool, tuple[float, ...]] = {False: (0.005, 0.01, 0.02), True: (0.01
 SIZES: dict[bool, tuple[float, ...]] = {False: (0.02, 0.011, 0.0065, 0.0047), True: (0.04,)}
 #: Layered octants for the growth study: fine only in a surface layer about the pole (the
 #: size grows by ``LAYER_GROWTH - 1`` per unit of depth), so that a few 10k DOFs carry up
-#: to about 5,000 contact rows at d/R ``LAYER_DEPTHS``. Not part of the goals: there the
+#: to about 6,000 contact rows at d/R ``LAYER_DEPTHS``. Not part of the goals: there the
 #: patch is a large part of the mesh.
 LAYERED: dict[bool, tuple[float, ...]] = {False: (0.006, 0.003, 0.0022), True: ()}
 LAYER_FINE_RADIUS = 0.22
