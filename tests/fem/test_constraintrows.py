@@ -35,15 +35,15 @@ def beam():
     )
     k = fem.assemble_stiffness(mesh, fem.LinearElastic(1e6, 0.3))
     x = mesh.points
-    return mesh, k, fem.node_dofs(np.flatnonzero(x[:, 0] == 0))
+    top = np.flatnonzero(np.isclose(x[:, 2], x[:, 2].max()))  # the marked zone
+    side = np.flatnonzero(np.isclose(x[:, 1], x[:, 1].min()) & (x[:, 2] < x[:, 2].max()))
+    return mesh, k, fem.node_dofs(np.flatnonzero(x[:, 0] == 0)), top, side
 
 
 @pytest.mark.parametrize("free", [False, True])
 def test_rows_off_the_marks_past_a_factorisation_s_cost_are_marked_and_refactored(beam, free):
-    mesh, k, held = beam
+    mesh, k, held, top, side = beam
     x = mesh.points
-    top = np.flatnonzero(np.isclose(x[:, 2], x[:, 2].max()))
-    side = np.flatnonzero(np.isclose(x[:, 1], x[:, 1].min()) & (x[:, 2] < x[:, 2].max()))
     low, high = side[: side.size // 2], side[side.size // 2 :]
 
     def make(lazy: bool) -> fem.StaticSolver:
@@ -72,10 +72,8 @@ def test_rows_off_the_marks_past_a_factorisation_s_cost_are_marked_and_refactore
 
 
 def test_rows_off_the_marks_are_rented_while_they_cost_less_than_a_factorisation(beam):
-    mesh, k, held = beam
+    mesh, k, held, top, side = beam
     x = mesh.points
-    top = np.flatnonzero(np.isclose(x[:, 2], x[:, 2].max()))
-    side = np.flatnonzero(np.isclose(x[:, 1], x[:, 1].min()) & (x[:, 2] < x[:, 2].max()))
     side = side[x[side, 0] > 0]  # not the held end
     s = fem.StaticSolver(k, held, lazy=True)
     s.mark(fem.node_dofs(top))

@@ -20,6 +20,13 @@ def body():
     return mesh, k
 
 
+def _held_k11(mesh, k):
+    """``K11`` of the body held at ``x = 0``: the matrix a held body factors."""
+    held = fem.node_dofs(np.flatnonzero(mesh.points[:, 0] == 0))
+    free = np.setdiff1d(np.arange(k.shape[0]), held)
+    return k[free][:, free].tocsr()
+
+
 def _reference(k, f, prescribed, values):
     """Dense re-partitioned solve of equations (7) and (8)."""
     kd = k.toarray()
@@ -283,10 +290,7 @@ def test_partial_solves_in_chunks_keep_their_work_arrays(body, monkeypatch):
     that is not one row per marked DOF is refused."""
     import fem.linsolve as fl
 
-    mesh, k = body
-    held = fem.node_dofs(np.flatnonzero(mesh.points[:, 0] == 0))
-    free = np.setdiff1d(np.arange(k.shape[0]), held)
-    a = k[free][:, free].tocsr()
+    a = _held_k11(*body)
     marked = np.arange(3, a.shape[0], 4)
     inv = np.linalg.inv(a.toarray())[np.ix_(marked, marked)]
     rng = np.random.default_rng(2)
@@ -311,10 +315,7 @@ def test_partial_solves_in_chunks_keep_their_work_arrays(body, monkeypatch):
 def test_past_a_third_of_the_marked_columns_the_schur_inverse_answers_sparse_or_dense(body):
     """The marked block's Cholesky answers the first columns; once they pass a third of
     the marks, its inverse, made once: the same numbers, for sparse and dense columns."""
-    mesh, k = body
-    held = fem.node_dofs(np.flatnonzero(mesh.points[:, 0] == 0))
-    free = np.setdiff1d(np.arange(k.shape[0]), held)
-    a = k[free][:, free].tocsr()
+    a = _held_k11(*body)
     marked = np.arange(0, a.shape[0], 2)
     want = np.linalg.inv(a.toarray())[np.ix_(marked, marked)]
     f = fem.factorize(a, "pardiso", marked=marked)
@@ -339,10 +340,7 @@ def test_the_marked_block_s_schur_complement_answers_partial_solves(body, monkey
     of the same factorisation stay exact; above it, the partial solves."""
     import fem.linsolve as fl
 
-    mesh, k = body
-    held = fem.node_dofs(np.flatnonzero(mesh.points[:, 0] == 0))
-    free = np.setdiff1d(np.arange(k.shape[0]), held)
-    a = k[free][:, free].tocsr()
+    a = _held_k11(*body)
     marked = np.arange(3, a.shape[0], 4)
     inv = np.linalg.inv(a.toarray())
     rng = np.random.default_rng(3)
@@ -366,9 +364,7 @@ def test_factorize_solves_right_hand_sides_with_its_test_solve(body, backend):
     """Right-hand sides handed to the factorisation come back solved (``first``), equal to
     a later solve; a free body with marks gets its J Phi that way, no separate solve."""
     mesh, k = body
-    held = fem.node_dofs(np.flatnonzero(mesh.points[:, 0] == 0))
-    free = np.setdiff1d(np.arange(k.shape[0]), held)
-    a = k[free][:, free].tocsr()
+    a = _held_k11(mesh, k)
     b = np.random.default_rng(3).standard_normal((a.shape[0], 2))
     f = fem.factorize(a, backend, rhs=b)
     np.testing.assert_allclose(f.first, f.solve(b), rtol=1e-12, atol=0)
