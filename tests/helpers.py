@@ -1,12 +1,17 @@
-"""Helpers shared by the tests: distorted meshes, a mixed wedge-brick box, a plates scene."""
+"""Helpers shared by the tests: distorted meshes, a mixed wedge-brick box, a plates scene,
+round-off perturbations of the contact solve."""
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 import fem
+from contact.solver.delassus import ContactSpace
 
 
 def distort(mesh: fem.Mesh, amount: float, seed: int = 0, boundary: bool = True) -> fem.Mesh:
@@ -90,3 +95,45 @@ def plates_scene(
     )  # fmt: skip
     path.write_text(text)
     return path
+
+
+@contextmanager
+def roundoff(seed: int, rel: float = 1e-15) -> Iterator[None]:
+    """Perturb every contact-space system by relative noise ``rel``: compliance, gaps, loads.
+
+    What another CPU's or thread count's round-off does to the same problem: a result
+    that changes its verdict or its motion under it depends on the machine.
+    """
+    rng = np.random.default_rng(seed)
+    original = ContactSpace.system
+
+    def noisy(self, e, g0):
+        sys_ = original(self, e, g0)
+        noise = rng.uniform(-rel, rel, sys_.w.shape)
+        w = sys_.w * (1.0 + (noise + noise.T) / 2)  # still symmetric
+        rhs = sys_.rhs * (1.0 + rng.uniform(-rel, rel, sys_.rhs.shape))
+        c = sys_.c * (1.0 + rng.uniform(-rel, rel, sys_.c.shape))
+        return replace(sys_, w=w, rhs=rhs, c=c)
+
+    ContactSpace.system = noisy
+    try:
+        yield
+    finally:
+        ContactSpace.system = original
+
+
+def same_outcome(a, b, rtol: float = 1e-8) -> None:
+    """Assert two frame results give the same verdict and the same motion to ``rtol``.
+
+    Held: the same displacements. Not held: the same slip (the way, the load not carried);
+    the last iterate of a solve that found no balance is no motion to compare.
+    """
+    assert (a.converged, a.held, a.stop_reason) == (b.converged, b.held, b.stop_reason)
+    if a.slip is not None or b.slip is not None:
+        assert a.slip["body"] == b.slip["body"] and a.slip["turns"] == b.slip["turns"]
+        assert np.allclose(a.slip["direction"], b.slip["direction"], rtol=0, atol=1e-6)
+        assert abs(a.slip["not_carried"] - b.slip["not_carried"]) <= 1e-6 * a.slip["available"]
+        return
+    for name, u in a.displacement.items():
+        scale = max(float(np.abs(u).max()), 1e-300)
+        assert np.abs(b.displacement[name] - u).max() <= rtol * scale, name

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from . import held
 from .delassus import SPRING, ContactSpace
 from .fields import FrictionState
 from .friction import FRICTION_TOLERANCE, SLIP, STICK, FrictionResult, solve_friction
@@ -122,8 +123,7 @@ class Slip:
         Or ``"not held: <body> turns about (...): ..."`` where the moment of its loads is
         what its contacts do not carry (``not_carried`` in N m, ``direction`` the axis).
         """
-        d = self.direction
-        way = f"({d[0]:.3f}, {d[1]:.3f}, {d[2]:.3f})"
+        way = held.way(self.direction)
         if self.turns:
             return (
                 f"not held: {self.body} turns about {way}: {self.not_carried:.4g} N m of the "

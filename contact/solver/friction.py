@@ -42,6 +42,7 @@ import numpy as np
 import scipy.linalg as sla
 from numpy.typing import NDArray
 
+from fem.saddle import RANK_TOL
 from fem.threads import dense_threads
 
 from .delassus import TOUCHING
@@ -145,19 +146,68 @@ def _measure(prob: NaturalMap, scale: float) -> Callable[[NDArray, NDArray], flo
     return measure
 
 
-def _reduced_step(j: NDArray, f: NDArray, inactive: NDArray[np.bool_]) -> NDArray:
+def _reduced_step(j: NDArray, f: NDArray, inactive: NDArray[np.bool_], a: NDArray, c: NDArray):
     """Newton step ``J d = -F`` with the open contacts' rows (``J`` = identity) taken out.
 
     Their forces step to zero (``d = -F`` there); the rest is a system of the closed
     contacts and the free bodies' modes only: a few rows where the candidates are many.
+    A mode that no closed contact moves and no load drives (a ball held at two points
+    turning about the line through them) is not determined by the step: its amplitude
+    is set to zero (the body where the frame started), not left to round-off.
     """
     d = np.empty_like(f)
     d[inactive] = -f[inactive]
     act = ~inactive
-    if act.any():
+    if not act.any():
+        return d
+    r = a.size
+    m = f.size - r
+    v0 = _unseen(j, act, m, c) if r and not j[m:, m:].any() else np.zeros((r, 0))
+    if not v0.shape[1]:
         ja = j[np.ix_(act, act)]
         d[act] = _step(ja, f[act] + j[np.ix_(act, inactive)] @ d[inactive])
+        return d
+    # the unseen modes' amplitudes go to zero; the rest solved on the modes seen (v1),
+    # the balance in the unseen modes (no load there, no closed row moving them) dropped
+    v1 = np.linalg.svd(v0.T, full_matrices=True)[2][v0.shape[1] :].T
+    d[m:] = -v0 @ (v0.T @ a)
+    rows = np.flatnonzero(act[:m])
+    known = np.concatenate([np.flatnonzero(inactive), np.arange(m, m + r)])
+    rest = f + j[:, known] @ d[known]
+    mat = np.block(
+        [
+            [j[np.ix_(rows, rows)], j[rows, m:] @ v1],
+            [v1.T @ j[m:, rows], v1.T @ j[m:, m:] @ v1],
+        ]
+    )
+    x = _step(mat, np.concatenate([rest[rows], v1.T @ rest[m:]]))
+    d[rows] = x[: rows.size]
+    d[m:] += v1 @ x[rows.size :]
     return d
+
+
+def _unseen(j: NDArray, act: NDArray[np.bool_], m: int, c: NDArray) -> NDArray:
+    """An orthonormal basis ``(r, q)`` of the modes no closed row moves and no load drives.
+
+    A mode is moved where the closed contacts' rows of ``J`` have a part along it above
+    :data:`fem.saddle.RANK_TOL` of the largest; a load's part along the unseen ones is
+    kept out (a body that falls or slides is not gauged: the step moves it).
+    """
+    r = j.shape[0] - m
+    ja = j[np.flatnonzero(act[:m]), m:]
+    if ja.size:
+        _, sv, vt = np.linalg.svd(ja, full_matrices=True)
+        top = float(sv.max(initial=0.0))
+        rank = int((sv > RANK_TOL * top).sum()) if top > 0 else 0
+        v0 = vt[rank:].T
+    else:
+        v0 = np.eye(r)
+    load = v0.T @ c
+    if v0.shape[1] and np.abs(load).max() > 1e-8 * max(float(np.abs(c).max()), 1e-300):
+        # the loaded direction among the unseen modes stays in the step
+        keep = np.linalg.svd(load[None, :], full_matrices=True)[2][1:].T
+        v0 = v0 @ keep
+    return v0
 
 
 def _step(j: NDArray, f: NDArray) -> NDArray:
@@ -343,7 +393,7 @@ def _descend(prob: NaturalMap, lam, a, measure, tol, mode: str, budget: int):
     trail = [best[0]]
     n = 0
     while best[0] > tol and n < min(TRY_STEPS, budget):
-        d = _reduced_step(prob.jacobian(s), f, prob.inactive(s))
+        d = _reduced_step(prob.jacobian(s), f, prob.inactive(s), a, prob.c)
         if not np.isfinite(d).all():
             break
         x0 = np.concatenate([lam, a])

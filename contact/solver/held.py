@@ -37,6 +37,7 @@ __all__ = [
     "touches_nothing",
     "turned",
     "unbalanced",
+    "way",
 ]
 
 #: A solve that moves a free body rigidly by more than this many element sizes (the
@@ -135,10 +136,20 @@ def touches_nothing(
         d = move / dist if dist > 0 else np.zeros(3)
         return (
             f"not held: {name} touches nothing (moved {dist * 1e3:.3g} mm along "
-            f"({d[0]:.3f}, {d[1]:.3f}, {d[2]:.3f})); frictionless contacts hold a free "
+            f"{way(d)}); frictionless contacts hold a free "
             "body only where they enclose it"
         )
     return ""
+
+
+def way(d: NDArray[np.float64]) -> str:
+    """A direction as ``"(x, y, z)"`` to three decimals, with no ``-0.000``.
+
+    A component that round-off leaves on either side of zero reads the same both ways,
+    so that a stop reason does not depend on the machine.
+    """
+    r = np.round(np.asarray(d, dtype=np.float64), 3) + 0.0  # -0.0 + 0.0 is 0.0
+    return f"({r[0]:.3f}, {r[1]:.3f}, {r[2]:.3f})"
 
 
 def end_gaps(
@@ -167,7 +178,7 @@ def unbalanced(net: Mapping[str, NDArray[np.float64]]) -> str:
         return f"not held: {name} turns: no contact carries the moment of its loads"
     d = force / size
     return (
-        f"not held: {name} moves along ({d[0]:.3f}, {d[1]:.3f}, {d[2]:.3f}): {size:.4g} N "
+        f"not held: {name} moves along {way(d)}: {size:.4g} N "
         "of its loads is carried by no contact (frictionless contacts hold a free body "
         "only where they enclose it)"
     )

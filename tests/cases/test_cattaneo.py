@@ -26,6 +26,7 @@ from contact.cases.cattaneo import (
 )
 from contact.cases.mindlin_theory import dundurs_beta, mindlin_sphere_on_plane
 from contact.errors import ContactError
+from tests.helpers import roundoff, same_outcome
 
 COARSE = 0.025  # a / h of about 4 at a / R = 0.1 (depth 0.01)
 FINE, FINE_DEPTH = 0.005, 0.0025  # a / h of about 10 at a / R = 0.05
@@ -96,6 +97,16 @@ def test_cattaneo_stick_radius_within_half_a_cell(coarse, ratio):
     check = _hold_cattaneo(coarse, ratio, lambda c: 0.5 * COARSE)
     # the tangential traction spread as Mindlin's q(r), in the integral sense
     assert abs(check.traction_error) <= 0.03
+
+
+def test_the_stick_zone_does_not_depend_on_round_off(coarse):
+    ref = cattaneo_check(coarse, 0.6)
+    for seed in range(3):
+        with roundoff(seed):
+            check = cattaneo_check(coarse, 0.6)
+        assert (check.zone.stick, check.zone.slip) == (ref.zone.stick, ref.zone.slip)
+        assert check.shift == pytest.approx(ref.shift, rel=1e-9)
+        same_outcome(ref.result, check.result)
 
 
 def test_mindlin_deresiewicz_residual_shift_coarse(coarse):

@@ -16,6 +16,7 @@ from contact.solver.body import ElasticBody
 from contact.solver.friction import SLIP, STICK, solve_friction
 from contact.solver.pairs import ContactPair
 from contact.solver.tangential import tangent_basis
+from tests.helpers import roundoff, same_outcome
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -150,6 +151,25 @@ def test_two_pads_drop_a_ball_heavier_than_twice_mu_n(squeeze, factor):
     assert "-1.000)" in res.stop_reason  # along gravity
 
 
+# ---------------------------------------------------------------------- round-off
+
+
+@pytest.mark.parametrize("factor", [0.0, 0.95, 1.05])
+def test_the_pads_verdict_and_motion_do_not_depend_on_round_off(squeeze, factor):
+    # unloaded, the ball is held at one node a pad: nothing holds its turn about the pads'
+    # axis and nothing asks for it; it must not turn by whatever the round-off says
+    weight = factor * 2 * 0.5 * squeeze
+    ref, _ = _pads(weight)
+    _, omega = fem.rigid_part(_PADS_MESH.points, ref.displacement["ball"])
+    if factor < 1:
+        assert ref.converged and ref.held, ref.stop_reason
+        assert abs(omega[0]) <= 1e-12
+    for seed in range(3):
+        with roundoff(seed):
+            res, _ = _pads(weight)
+        same_outcome(ref, res)
+
+
 # ---------------------------------------------------------------------- patch test
 
 
@@ -226,6 +246,23 @@ def test_a_frictional_patch_sticks_uniformly_below_mu_p_and_slides_above():
     assert res.stop_reason.startswith("not held: block slips along (1.000, ")
 
 
+@pytest.mark.parametrize("ratio", [0.9, 1.02])
+def test_the_frictional_patch_does_not_depend_on_round_off(ratio):
+    p, mu = 1.0e3, 0.4
+    eps_p = np.diag([NU_PATCH * p / E, NU_PATCH * p / E, -p / E])
+    first, _ = _block(lambda b: _block_loads(b, eps_p, (0, 0, p)), 0.0)
+    tau = ratio * mu * p
+    shear = eps_p.copy()
+    shear[0, 2] = tau / (E / (2 * (1 + NU_PATCH)))
+
+    def solve():
+        return _block(lambda b: _block_loads(b, shear, (-tau, 0, p)), mu, first.anchors)[0]
+
+    ref = solve()
+    for seed in range(3):
+        with roundoff(seed):
+            same_outcome(ref, solve())
+
 
 def test_without_friction_anchors_change_nothing():
     # mu = 0: the frictionless path, whatever the anchors of an earlier frame say
@@ -265,6 +302,16 @@ def test_a_block_on_an_incline_sticks_iff_tan_theta_is_at_most_mu():
     slid = _incline(1.03 * limit, mu)
     assert not slid.converged and slid.held is False
     assert slid.stop_reason.startswith("not held: block slips along (")
+
+
+@pytest.mark.parametrize("factor", [0.97, 1.03])
+def test_the_incline_does_not_depend_on_round_off(factor):
+    mu = 0.3
+    theta = factor * np.degrees(np.arctan(mu))
+    ref = _incline(theta, mu)
+    for seed in range(3):
+        with roundoff(seed):
+            same_outcome(ref, _incline(theta, mu))
 
 
 # ---------------------------------------------------------------------- the seed loop
