@@ -14,13 +14,25 @@ not oversubscribe the cores, and 1 on an existing cluster (a worker runs ``nthre
 at once: together they take its ``nthreads`` threads).
 
 Faults: a run that raises or exits 2 or more is a failed row and the sweep goes on; a run
-whose worker process dies is resubmitted by the scheduler (up to :data:`ALLOWED_FAILURES`
-deaths, then a ``KilledWorker`` failed row). A run whose results folder is complete for the
-same scene text is not redone. The table is ``sweep.csv`` (:mod:`contact.sweeptable`) with
-a plot, ``sweep.png``.
+whose worker process dies is resubmitted by the scheduler (up to
+:data:`contact.sweepcluster.ALLOWED_FAILURES` deaths, then a ``KilledWorker`` failed row).
+A run whose results folder is complete for the same scene text is not redone. The table is
+``sweep.csv`` (:mod:`contact.sweeptable`) with a plot, ``sweep.png``.
 
-Exit status: 0 every run done, 1 a run failed, 2 a bad sweep file, a bad generated scene
-or a scheduler that does not answer (one line, nothing run).
+Bounds: a sweep has at most :data:`contact.sweepspec.MAX_RUNS` runs; the embedded
+cluster's workers and each run's threads are held to the cores (and the workers to the runs
+to do), with a warning saying so.
+
+Order: the sweep file, the scheduler's address, every generated scene (loaded from a
+temporary folder) and the output folder are checked first; then the cluster is started or
+the scheduler asked (a handshake within :data:`contact.sweepcluster.SCHEDULER_TIMEOUT`);
+only then are the run folders written. Bad input thus leaves nothing behind.
+
+Exit status (:data:`EXIT_STATUS`): 0 every run done, 1 a run failed, 2 bad input: a bad
+sweep file, a bad generated scene, a bad or silent scheduler (one line, nothing written),
+3 an internal error (one line naming the exception and a log file with its traceback, as
+``contact.grasp``), 130 / 143 interrupted by SIGINT / SIGTERM (one line; the runs done so
+far are kept and a second sweep resumes from them).
 """
 
 from __future__ import annotations
@@ -32,31 +44,34 @@ import logging
 import os
 import signal
 import sys
+import tempfile
 import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from . import sweepcluster
 from .errors import ContactError
+from .grasp import _catch_sigterm, _internal_error, _Terminated
 from .grasp import run as grasp_run
 from .scene.read import load_scene
+from .sweepcluster import check_address, client, hold
 from .sweepspec import Sweep, SweepError, SweepRun, expand, load_sweep
 from .sweeptable import columns, figures, plot, read_summary, write_table
 
 __all__ = [
-    "ALLOWED_FAILURES", "RETRIES", "SCHEDULER_TIMEOUT", "TEST_KILL_ONCE", "THREAD_VARIABLES",
-    "main", "run_one", "sweep",
+    "EXIT_STATUS", "RETRIES", "TEST_KILL_ONCE", "main", "run_one", "sweep",
 ]  # fmt: skip
 
-#: Seconds to wait for a ``--scheduler`` to answer before giving up (exit 2).
-SCHEDULER_TIMEOUT = 10.0
-#: The thread-count variables a worker process gets, read by the BLAS, PARDISO and numba.
-THREAD_VARIABLES = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS",
-                    "NUMBA_NUM_THREADS")  # fmt: skip
-#: Worker deaths a run survives on the embedded cluster (``distributed.scheduler.
-#: allowed-failures``); one more and the run is a ``KilledWorker`` failed row. An existing
-#: cluster's scheduler uses its own setting (Dask's default is also 3).
-ALLOWED_FAILURES = 3
+#: The exit statuses of the command line, as ``--help`` and ``docs/sweep.md`` list them.
+EXIT_STATUS = (
+    "Exit status: 0 every run done; 1 a run failed (its row says why); 2 bad input: the "
+    "sweep file, a generated scene, the scheduler's address or a scheduler that does not "
+    "answer (one line; nothing written); 3 an internal error (one line and the path of a "
+    "log file with its traceback); 130 / 143 interrupted by SIGINT / SIGTERM (the runs done "
+    "are kept: run the sweep again to resume)."
+)
+
 #: Dask ``retries`` of a task that raises (``run_one`` itself catches a run's exceptions, so
 #: this covers the rest, e.g. a result that does not travel back); deaths are counted above.
 RETRIES = 1
@@ -135,54 +150,54 @@ def run_one(
     return {**figures(summary), "status": "done", "exit_status": code, "seconds": seconds}
 
 
-def _prepare(sw: Sweep, out: Path) -> list[tuple[SweepRun, Path, dict | None]]:
-    """Write each run's scene and load it; ``(run, folder, resumed row or None)``.
+def _check(sw: Sweep, out: Path) -> list[tuple[SweepRun, dict | None]]:
+    """Load each run's scene from a temporary folder; ``(run, resumed row or None)``.
 
-    A run whose folder holds the same scene text and a complete summary is resumed.
+    Nothing is written under ``out``. A run whose folder holds the same scene text and a
+    complete summary is resumed.
 
     Raises
     ------
     SweepError
         A generated scene that does not load: one line naming the run and the key.
     """
-    prepared = []
-    for r in expand(sw, out / "runs"):
-        folder = out / "runs" / r.name
-        scene = folder / "scene.toml"
-        same = scene.is_file() and scene.read_text() == r.text
-        done = read_summary(folder / "results", sw.least_grip) if same else None
-        if not same:
-            folder.mkdir(parents=True, exist_ok=True)
+    checked = []
+    with tempfile.TemporaryDirectory(prefix="contact-sweep-") as tmp:
+        trial = Path(tmp) / "scene.toml"
+        for r in expand(sw, out / "runs"):
+            scene = out / "runs" / r.name / "scene.toml"
+            trial.write_text(r.text)
+            try:
+                load_scene(trial)
+            except (ContactError, ValueError, OSError) as exc:
+                values = ", ".join(f"{k} = {v!r}" for k, v in r.values.items())
+                why = str(exc).replace(str(trial), str(scene))
+                raise SweepError(f"run {r.name} ({values}): {why}") from None
+            same = scene.is_file() and scene.read_text() == r.text
+            done = read_summary(scene.parent / "results", sw.least_grip) if same else None
+            row = None if done is None else {**figures(done), "status": "done", "seconds": 0.0}
+            checked.append((r, row))
+    return checked
+
+
+def _writable(folder: Path) -> None:
+    """Raise :class:`SweepError` where ``folder`` cannot be made and written (nothing made)."""
+    up = folder
+    while not up.exists() and up != up.parent:
+        up = up.parent
+    if up.exists() and not up.is_dir():
+        raise SweepError(f"{folder}: cannot be made: {up} is not a folder")
+    if not os.access(up, os.W_OK | os.X_OK):
+        raise SweepError(f"{folder}: cannot be written ({up} is read-only)")
+
+
+def _write(todo: list[SweepRun], out: Path) -> None:
+    """Write each run's ``runs/NNNN/scene.toml`` (kept where it holds the same text)."""
+    for r in todo:
+        scene = out / "runs" / r.name / "scene.toml"
+        if not (scene.is_file() and scene.read_text() == r.text):
+            scene.parent.mkdir(parents=True, exist_ok=True)
             scene.write_text(r.text)
-        try:
-            load_scene(scene)
-        except (ContactError, ValueError, OSError) as exc:
-            values = ", ".join(f"{k} = {v!r}" for k, v in r.values.items())
-            raise SweepError(f"run {r.name} ({values}): {exc}") from None
-        row = None if done is None else {**figures(done), "status": "done", "seconds": 0.0}
-        prepared.append((r, folder, row))
-    return prepared
-
-
-def _client(scheduler: str | None, workers: int, threads: int):
-    """A Dask client and the cluster it owns (None with ``--scheduler``)."""
-    import dask
-    from distributed import Client, LocalCluster
-
-    logging.getLogger("distributed").setLevel(logging.ERROR)
-    if scheduler:
-        return Client(scheduler, timeout=SCHEDULER_TIMEOUT), None
-    env = {v: str(threads) for v in THREAD_VARIABLES}
-    with dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES}):
-        cluster = LocalCluster(
-            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
-            silence_logs=logging.CRITICAL, env=env,
-        )  # fmt: skip
-    try:
-        return Client(cluster), cluster
-    except BaseException:
-        cluster.close()
-        raise
 
 
 def _unguarded_child() -> bool:
@@ -235,29 +250,33 @@ def sweep(
             print(f"error: {name} must be a positive integer, got {n!r}", file=sys.stderr)
             return 2
     try:
+        if scheduler is not None:
+            check_address(scheduler)
         sw = load_sweep(path)
         folder = Path(out or sw.directory or Path("results") / Path(path).stem).resolve()
-        folder.mkdir(parents=True, exist_ok=True)
-        prepared = _prepare(sw, folder)
+        _writable(folder)
+        checked = _check(sw, folder)
     except (ContactError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    cores = os.cpu_count() or 1
-    n = workers or cores
-    if threads is None and not scheduler:
-        threads = max(1, cores // n)
     rows: dict[int, dict[str, Any]] = {}
     todo = []
-    for r, run_folder, row in prepared:
+    for r, row in checked:
         if row is not None:
             rows[r.index] = {"run": r.name, **r.values, **row}
         else:
-            todo.append((r, run_folder))
+            todo.append(r)
     if todo:
+        if scheduler is None:
+            n, share = hold(workers, threads, len(todo))
+        else:  # an existing cluster's workers: one thread a task slot unless told
+            n, share = 0, threads or 1
         try:
-            client, cluster = _client(scheduler, n, threads or 1)
+            cl, cluster = client(scheduler, n, share)
         except (OSError, TimeoutError) as exc:
-            print(f"error: scheduler {scheduler}: does not answer ({exc})", file=sys.stderr)
+            why = (str(exc).splitlines() or [""])[0] or type(exc).__name__
+            print(f"error: scheduler {scheduler}: does not answer within "
+                  f"{sweepcluster.SCHEDULER_TIMEOUT:g} s ({why})", file=sys.stderr)  # fmt: skip
             return 2
         except RuntimeError as exc:  # spawned workers re-import an unguarded script
             line = (str(exc).splitlines() or [""])[0]
@@ -268,13 +287,18 @@ def sweep(
             )
             return 2
         try:
-            _submit(client, todo, sw, threads, rows, quiet)
+            _write(todo, folder)
+            _submit(cl, [(r, folder / "runs" / r.name) for r in todo], sw, share, rows, quiet)
+        except OSError as exc:  # the folder checked writable went away: nothing run
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
         finally:
             try:
-                client.close()
+                cl.close()
             finally:
                 if cluster is not None:
                     cluster.close()
+    folder.mkdir(parents=True, exist_ok=True)
     ordered = [rows[i] for i in sorted(rows)]
     write_table(ordered, columns(sw.keys, sw.least_grip), folder)
     plot(ordered, sw.keys, sw.plot_y, folder / "sweep.png")
@@ -317,19 +341,19 @@ def _submit(client, todo, sw: Sweep, threads: int | None, rows: dict, quiet: boo
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """The command line; returns the exit status."""
+    """The command line; returns the exit status (:data:`EXIT_STATUS`)."""
     ap = argparse.ArgumentParser(
         prog="python -m contact.sweep",
         description="Run a sweep of grasp scenes (a base scene and the keys to vary) on a "
         "Dask cluster; write each run's results, sweep.csv and sweep.png.",
-        epilog="Exit status: 0 every run done; 1 a run failed (its row says why); 2 bad "
-        "input (one line; nothing run). The sweep keys are documented in docs/sweep.md.",
+        epilog=EXIT_STATUS + " The sweep keys are documented in docs/sweep.md.",
     )
     ap.add_argument("sweep", help="the sweep file (TOML; see docs/sweep.md)")
     ap.add_argument("--scheduler", metavar="ADDRESS",
                     help="a Dask scheduler (tcp://host:8786); default an embedded local cluster")
     ap.add_argument("--workers", metavar="N",
-                    help="local worker processes (default one per core)")
+                    help="local worker processes (default one per core; held to the cores and "
+                    "the runs to do)")
     ap.add_argument("--threads", metavar="N",
                     help="threads per run: BLAS, PARDISO, numba (default the core share on the "
                     "embedded cluster, 1 with --scheduler: one per task slot)")
@@ -349,8 +373,20 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 2
     logging.basicConfig(level=logging.ERROR if args.quiet else logging.WARNING,
                         format="%(levelname)s: %(message)s")  # fmt: skip
-    return sweep(args.sweep, out=args.out, scheduler=args.scheduler, workers=counts["workers"],
-                 threads=counts["threads"], quiet=args.quiet)  # fmt: skip
+    term = _catch_sigterm()
+    try:
+        return sweep(args.sweep, out=args.out, scheduler=args.scheduler,
+                     workers=counts["workers"], threads=counts["threads"],
+                     quiet=args.quiet)  # fmt: skip
+    except (KeyboardInterrupt, _Terminated) as exc:
+        print("interrupted; the runs done are kept: run the sweep again to resume",
+              file=sys.stderr)  # fmt: skip
+        return 143 if isinstance(exc, _Terminated) else 130
+    except Exception as exc:
+        return _internal_error(exc)
+    finally:
+        if term is not None:
+            signal.signal(signal.SIGTERM, term)  # type: ignore[arg-type]
 
 
 if __name__ == "__main__":

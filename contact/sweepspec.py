@@ -6,6 +6,10 @@ vary (``[vary]``), each a dotted path into the scene file's TOML (``ball.materia
 range ``{ start, stop, num }`` (``numpy.linspace``), combined as a product or zipped
 (``[sweep] mode``). ``docs/sweep.md`` documents every key.
 
+A sweep has at most :data:`MAX_RUNS` runs (the run folders are ``runs/0000`` to
+``runs/9999``): the count is worked out from the lists' lengths and the ranges' ``num``
+before any list or scene is built, so that a huge sweep is refused at once.
+
 Reading is as strict as a scene's: an unknown key, a wrong type, an empty list or a key
 path that is neither in the base scene's TOML document nor in its echo (the scene's keys
 with their defaults, :meth:`contact.scene.spec.Scene.echo`) raises :class:`SweepError`
@@ -17,6 +21,7 @@ loaded with :func:`contact.scene.read.load_scene` before anything runs.
 from __future__ import annotations
 
 import copy
+import datetime
 import itertools
 import json
 import math
@@ -32,10 +37,12 @@ from .errors import ContactError
 from .scene.read import load_scene
 
 __all__ = [
-    "METRICS", "Sweep", "SweepError", "SweepRun", "dump_toml", "expand", "load_sweep",
-    "parse_path",
+    "MAX_RUNS", "METRICS", "Sweep", "SweepError", "SweepRun", "dump_toml", "expand", "load_sweep",
+    "parse_path", "run_count",
 ]  # fmt: skip
 
+#: The most runs a sweep may have: its run folders are named by four digits.
+MAX_RUNS = 10_000
 #: The table's per-run figures that ``[plot] y`` may name (see docs/sweep.md).
 METRICS = (
     "grip_force", "max_bone_force", "iterations", "seconds", "least_grip_scale",
@@ -121,6 +128,28 @@ def _walk(doc: Any, steps: list[str | int]) -> bool:
     return True
 
 
+def _settable(doc: dict, steps: list[str | int]) -> bool:
+    """Whether :func:`_set` can set ``steps`` in ``doc``: tables on the way, list items there."""
+    for s in steps[:-1]:
+        if isinstance(s, str) and isinstance(doc, dict) and s not in doc:
+            doc = {}
+        elif isinstance(s, int) and isinstance(doc, list) and s < len(doc):
+            doc = doc[s]
+        elif isinstance(s, str) and isinstance(doc, dict):
+            doc = doc[s]
+        else:
+            return False
+    last = steps[-1]
+    return isinstance(doc, dict) if isinstance(last, str) else (
+        isinstance(doc, list) and last < len(doc))  # fmt: skip
+
+
+def run_count(vary: dict[str, list[Any]], mode: str) -> int:
+    """The number of runs: the product of the lists' lengths, or their common length (zip)."""
+    lengths = [len(v) for v in vary.values()]
+    return math.prod(lengths) if mode == "product" else min(lengths, default=0)
+
+
 def _set(doc: dict, steps: list[str | int], value: Any) -> None:
     """Set ``value`` at ``steps``, creating the missing tables (never list items)."""
     for s in steps[:-1]:
@@ -150,6 +179,8 @@ def _values(r: _Reader, key: str, v: Any) -> list[Any]:
         start = r.number(v["start"], f"{path}.start")
         stop = r.number(v["stop"], f"{path}.stop")
         num = r.integer(v["num"], f"{path}.num", minimum=1)
+        if num > MAX_RUNS:
+            raise r.fail(f"{path}.num", num, f"past the bound of {MAX_RUNS:,} runs a sweep")
         return [float(x) for x in np.linspace(start, stop, num)]
     if not isinstance(v, list):
         raise r.fail(path, v, "must be a list of values or a table { start, stop, num }")
@@ -176,6 +207,9 @@ def load_sweep(path: str | Path) -> Sweep:
         raise SweepError(f"{p.name}: not valid TOML: {exc}") from None
     top = r.table(data, "", required=("sweep", "vary"), optional=("plot",))
     sw = r.table(top["sweep"], "sweep", required=("scene",), optional=_SWEEP[1:])
+    for k in ("scene", "directory"):  # a NUL is no path: the OS would refuse it
+        if isinstance(sw.get(k), str) and "\x00" in sw[k]:
+            raise r.fail(f"sweep.{k}", sw[k], "a path may not hold a NUL character")
     scene = r.file(sw["scene"], "sweep.scene", p.resolve().parent)
     mode = r.string(sw.get("mode", "product"), "sweep.mode", ("product", "zip"))
     pictures = r.boolean(sw.get("pictures", False), "sweep.pictures")
@@ -197,12 +231,19 @@ def load_sweep(path: str | Path) -> Sweep:
             steps = parse_path(key)
         except ValueError as exc:
             raise r.fail(f"vary.{key}", MISSING, str(exc)) from None
-        if not (_walk(base, steps) or _walk(echo, steps)):
+        if not (_walk(base, steps) or _walk(echo, steps)) or not _settable(base, steps):
             raise r.fail(f"vary.{key}", MISSING, f"no key {key} in the scene {scene.name}")
         vary[key] = _values(r, key, v)
+    if not vary:  # only empty tables under [vary]
+        raise r.fail("vary", top["vary"], "give at least one key path to vary")
     if mode == "zip" and len({len(v) for v in vary.values()}) > 1:
         lengths = ", ".join(f"{k}: {len(v)}" for k, v in vary.items())
         raise r.fail("sweep.mode", mode, f"zip needs lists of one length ({lengths})")
+    count = run_count(vary, mode)
+    if count > MAX_RUNS:
+        sizes = " x ".join(str(len(v)) for v in vary.values())
+        raise r.fail("vary", MISSING, f"{count:,} runs ({sizes}): past the bound of "
+                     f"{MAX_RUNS:,} runs a sweep")  # fmt: skip
     return Sweep(p, scene, vary, mode, pictures, least, directory, plot_y, base)
 
 
@@ -212,7 +253,7 @@ def _absolute(doc: dict, folder: Path) -> None:
     tables = [(doc.get(table), key) for table, key in _PATH_KEYS]
     tables += [(t, "mesh") for t in objects] if isinstance(objects, list) else []
     for t, key in tables:
-        if isinstance(t, dict) and isinstance(t.get(key), str):
+        if isinstance(t, dict) and isinstance(t.get(key), str) and "\x00" not in t[key]:
             t[key] = str((folder / Path(t[key]).expanduser()).resolve())
 
 
@@ -268,6 +309,8 @@ def _value(v: Any) -> str:
         return "[" + ", ".join(_value(x) for x in v) + "]"
     if isinstance(v, dict):
         return "{ " + ", ".join(f"{_key(k)} = {_value(x)}" for k, x in v.items()) + " }"
+    if isinstance(v, (datetime.date, datetime.time)):  # TOML's dates and times, bare
+        return v.isoformat()
     raise TypeError(f"cannot write {type(v).__name__} as TOML")
 
 

@@ -4,7 +4,11 @@
 worker that ran the scene, or in the sweep's process for a run resumed from its folder);
 :func:`write_table` writes ``sweep.csv`` (and ``sweep.parquet`` where pyarrow imports);
 :func:`plot` draws a chosen figure against the first varied key, one line per value of the
-second.
+second, its axes labelled with their units; a run that did not converge is a hollow marker.
+
+``held`` is three-valued, as in a frame's record: ``False`` when a frame's free body slipped
+away, ``None`` (an empty cell) when some frame could not tell (it did not converge, or no
+body is free), ``True`` only when every frame held.
 """
 
 from __future__ import annotations
@@ -12,17 +16,43 @@ from __future__ import annotations
 import csv
 import json
 import math
+import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-__all__ = ["COLUMNS", "columns", "figures", "plot", "read_summary", "write_table"]
+__all__ = [
+    "COLUMNS", "UNITS", "columns", "figures", "plot", "read_summary", "unit", "write_table",
+]
 
 #: The table's columns after the run id and the varied keys.
 COLUMNS = (
     "status", "exit_status", "converged", "realistic", "held", "least_grip_scale",
     "max_bone_force", "max_bone", "grip_force", "iterations", "seconds",
 )  # fmt: skip
+
+
+#: Units of the table's figures and of the scene keys (by their last name, docs/scene.md);
+#: ``"-"`` for a ratio. A key not here is labelled without one.
+UNITS = {
+    "grip_force": "N", "max_bone_force": "N", "seconds": "s", "iterations": "count",
+    "least_grip_scale": "-", "gravity": "m/s²", "radius": "m", "thickness": "m",
+    "pressure": "Pa", "mesh_size": "m", "center": "m", "E": "Pa", "nu": "-",
+    "density": "kg/m³", "friction": "-", "rotation": "degrees", "bone_force_limit": "N",
+    "time": "s", "times": "s", "start": "s", "stop": "s", "angles": "degrees",
+    "epsilon": "m", "press": "m", "point": "m", "force": "N", "force_tolerance": "-",
+}  # fmt: skip
+
+
+def unit(key: str) -> str | None:
+    """The unit of a table column or of a varied key path (by its last name), or None."""
+    name = re.sub(r"\[\d+\]", "", key).rsplit(".", 1)[-1]
+    return UNITS.get(name)
+
+
+def _label(key: str) -> str:
+    u = unit(key)
+    return key if u is None else f"{key} ({u})"
 
 
 def read_summary(results: Path, least: bool) -> dict | None:
@@ -54,7 +84,8 @@ def figures(summary: Mapping[str, Any]) -> dict[str, Any]:
     -------
     dict
         ``exit_status`` (0 every frame realistic, else 1, as ``contact.grasp``),
-        ``converged``, ``realistic``, ``held`` (over all frames), ``least_grip_scale``
+        ``converged``, ``realistic``, ``held`` (False a frame not held, None a frame that
+        cannot tell, True every frame held), ``least_grip_scale``
         (None unless searched), ``max_bone_force`` (N) and ``max_bone`` over all frames,
         ``grip_force`` at the last frame (N), ``iterations`` (summed over the frames).
     """
@@ -67,11 +98,14 @@ def figures(summary: Mapping[str, Any]) -> dict[str, Any]:
                 best, bone = m, name
     least = summary.get("least_grip")
     realistic = bool(summary.get("all_realistic"))
+    helds = [f.get("held") for f in frames]
+    held = (False if any(h is False for h in helds)
+            else True if helds and all(h is True for h in helds) else None)  # fmt: skip
     return {
         "exit_status": 0 if realistic else 1,
         "converged": bool(summary.get("all_converged")),
         "realistic": realistic,
-        "held": all(f.get("held") is not False for f in frames),
+        "held": held,
         "least_grip_scale": least.get("scale") if isinstance(least, Mapping) else None,
         "max_bone_force": best,
         "max_bone": bone,
@@ -132,15 +166,27 @@ def _number(v: Any) -> float | None:
 
 
 def plot(rows: Sequence[Mapping[str, Any]], keys: Sequence[str], y: str, path: Path) -> Path:
+    """Draw :func:`_figure` into ``path`` (PNG)."""
+    import matplotlib.pyplot as plt
+
+    fig = _figure(rows, keys, y)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return Path(path)
+
+
+def _figure(rows: Sequence[Mapping[str, Any]], keys: Sequence[str], y: str) -> Any:
     """``y`` against the first varied key (its values, or their order where not numbers).
 
     Keys given one value are passed over; a second varied key gives one line per value;
-    failed runs are left out.
+    failed runs are left out; a run that did not converge is a hollow marker (its figures
+    are those of an unconverged state), with a legend entry saying so.
     """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
 
     keys = [k for k in keys if len({json.dumps(r[k]) for r in rows}) > 1] or list(keys[:1])
     x_key = keys[0]
@@ -152,6 +198,7 @@ def plot(rows: Sequence[Mapping[str, Any]], keys: Sequence[str], y: str, path: P
         label = f"{keys[1]} = {json.dumps(r[keys[1]])}" if len(keys) > 1 else ""
         groups.setdefault(label, []).append(r)
     fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    hollow = False
     for label, members in groups.items():
         pts = []
         for r in members:
@@ -159,18 +206,26 @@ def plot(rows: Sequence[Mapping[str, Any]], keys: Sequence[str], y: str, path: P
             if yv is None:
                 continue
             xv = _number(r[x_key]) if numeric else ticks.index(json.dumps(r[x_key]))
-            pts.append((xv, yv))
+            pts.append((xv, yv, r.get("converged") is True))
         pts.sort()
-        ax.plot([p[0] for p in pts], [p[1] for p in pts], "o-", label=label or None)
+        (line,) = ax.plot([p[0] for p in pts], [p[1] for p in pts], "-", label=label or None)
+        for ok in (True, False):
+            sel = [p for p in pts if p[2] is ok]
+            hollow |= not ok and bool(sel)
+            ax.plot([p[0] for p in sel], [p[1] for p in sel], "o", color=line.get_color(),
+                    markerfacecolor=None if ok else "none", linestyle="none")  # fmt: skip
     if not numeric:
         ax.set_xticks(range(len(ticks)), ticks, rotation=30, ha="right")
-    ax.set_xlabel(x_key)
-    ax.set_ylabel(y)
+    ax.set_xlabel(_label(x_key) if numeric else x_key)
+    ax.set_ylabel(_label(y))
     ax.set_title(f"{y} against {x_key}")
-    if len(keys) > 1:
-        ax.legend(fontsize="small")
+    handles, labels = ax.get_legend_handles_labels()
+    if hollow:
+        handles.append(Line2D([], [], marker="o", markerfacecolor="none", color="grey",
+                              linestyle="none"))  # fmt: skip
+        labels.append("did not converge")
+    if handles:
+        ax.legend(handles, labels, fontsize="small")
     ax.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return Path(path)
+    return fig

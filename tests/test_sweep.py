@@ -190,9 +190,9 @@ def test_a_generated_scene_that_does_not_load_names_the_run(tmp_path, capsys):
 
 
 def test_a_scheduler_that_does_not_answer_exits_2(tmp_path, capsys, monkeypatch):
-    import contact.sweep
+    import contact.sweepcluster
 
-    monkeypatch.setattr(contact.sweep, "SCHEDULER_TIMEOUT", 1.0)
+    monkeypatch.setattr(contact.sweepcluster, "SCHEDULER_TIMEOUT", 1.0)
     _scene(tmp_path)
     sw = _sweep(tmp_path, '"plane[0].friction" = [0.5]')
     assert sweep(sw, out=tmp_path / "out", scheduler="tcp://127.0.0.1:1", quiet=True) == 2
@@ -224,9 +224,9 @@ def test_a_worker_killed_during_a_run_is_resubmitted(tmp_path, monkeypatch):
 
 
 def test_a_run_whose_worker_dies_past_the_allowed_failures_is_a_failed_row(tmp_path, monkeypatch):
-    import contact.sweep
+    import contact.sweepcluster
 
-    monkeypatch.setattr(contact.sweep, "ALLOWED_FAILURES", 0)  # the first death is too many
+    monkeypatch.setattr(contact.sweepcluster, "ALLOWED_FAILURES", 0)  # one death is too many
     monkeypatch.setenv(TEST_KILL_ONCE, str(tmp_path / "killed"))
     _scene(tmp_path)
     sw = _sweep(tmp_path, '"plane[0].friction" = [0.5]')
