@@ -1,8 +1,10 @@
-"""fem: a small, vectorised linear finite-element library for 3D elasticity.
+"""fem: a small, vectorised finite-element library for 3D elasticity.
 
 It knows nothing of hands or contact. Meshes of TET4, HEX8 and WEDGE6 cells, sparse
 stiffness assembly, loads, the partitioned solve of prescribed displacements with
-reactions, free bodies, stresses, generators, meshing and IO.
+reactions, free bodies, stresses, generators, meshing and IO; linear elasticity, and
+neo-Hookean finite strain solved by Newton's method (:mod:`fem.hyperelastic`,
+:mod:`fem.newton`).
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from .errors import (
 from .generators import ball_mesh, graded_ball_mesh, shell_mesh
 from .graded_tets import graded_tet_octant
 from .grids import box_mesh, hex_to_tet
+from .hyperelastic import FiniteStrain, cauchy_stress, finite_strain, neo_hookean
 from .io import read_mesh, read_mesh_data, write_mesh
 from .linsolve import available_backends, factorize
 from .loads import (
@@ -34,6 +37,7 @@ from .loads import (
 from .material import LinearElastic, elasticity_matrix, lame
 from .mesh import BoundaryFaces, Mesh, bounding_box
 from .meshing import check_surface, sphere_surface, tetrahedralize
+from .newton import NewtonSolution, solve_finite_strain
 from .nodalpressure import nodal_dilatation, nodal_pressure_correction
 from .pvmesh import from_pyvista, to_pyvista
 from .saddle import rigid_part
@@ -51,11 +55,13 @@ __all__ = [
     "WEDGE6",
     "BoundaryFaces",
     "FemError",
+    "FiniteStrain",
     "LinearElastic",
     "LoadError",
     "MaterialError",
     "Mesh",
     "MeshError",
+    "NewtonSolution",
     "NoVolumeCellsError",
     "ReferenceElement",
     "SolverError",
@@ -67,6 +73,7 @@ __all__ = [
     "ball_mesh",
     "bounding_box",
     "box_mesh",
+    "cauchy_stress",
     "cell_stress",
     "check_balance",
     "check_surface",
@@ -76,6 +83,7 @@ __all__ = [
     "element_dofs",
     "element_stiffness",
     "factorize",
+    "finite_strain",
     "from_pyvista",
     "gauss_strain",
     "graded_ball_mesh",
@@ -84,6 +92,7 @@ __all__ = [
     "hex_to_tet",
     "initial_stress_load",
     "lame",
+    "neo_hookean",
     "nodal_average",
     "nodal_dilatation",
     "nodal_pressure_correction",
@@ -96,6 +105,7 @@ __all__ = [
     "rigid_part",
     "rotation_svd3",
     "shell_mesh",
+    "solve_finite_strain",
     "sparse_threads",
     "sphere_surface",
     "tetrahedralize",
