@@ -20,6 +20,7 @@ from .mesh import BoundaryFaces, Mesh
 
 __all__ = [
     "STANDARD_GRAVITY",
+    "faces_of",
     "gravity_load",
     "initial_stress_load",
     "nodal_volumes",
@@ -166,7 +167,8 @@ def resultant_load(
     return out + w[:, None] * np.cross(omega, r)
 
 
-def _faces_of(faces: BoundaryFaces | Mapping[str, ArrayLike]) -> dict[str, NDArray[np.int64]]:
+def faces_of(faces: BoundaryFaces | Mapping[str, ArrayLike]) -> dict[str, NDArray[np.int64]]:
+    """Faces by kind (``"triangle"``, ``"quad"``), checked for shape; empty kinds left out."""
     if isinstance(faces, BoundaryFaces):
         return {k: f for k, f in faces.faces.items() if len(f)}
     out = {}
@@ -203,7 +205,7 @@ def pressure_load(
     pressure : float or mapping
         Pascals; one value, or an array per face kind.
     """
-    fcs = _faces_of(faces)
+    fcs = faces_of(faces)
     f = np.zeros((mesh.n_points, 3))
     for kind, conn in fcs.items():
         if conn.min() < 0 or conn.max() >= mesh.n_points:

@@ -8,9 +8,9 @@ tangent ``K_T`` in place of ``K``::
 
     K_T,11 dUu = -r_u
 
-and a backtracking line search on the total potential ``Pi(U) - R . U`` (its steps are
-directions of descent where ``K_T,11`` is positive definite). The prescribed values are
-applied in load steps, each a Newton solve from the last.
+and a backtracking line search on the residual's norm. A pressure may follow the deformed
+surface (:mod:`fem.follower`). The prescribed values and loads are applied in load
+steps, each a Newton solve from the last.
 """
 
 from __future__ import annotations
@@ -20,19 +20,21 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import MaterialError, SolverError
+from .follower import follower_pressure
 from .hyperelastic import finite_strain
 from .linsolve import factorize
 from .material import LinearElastic
-from .mesh import Mesh
+from .mesh import BoundaryFaces, Mesh
 
 __all__ = ["NewtonSolution", "solve_finite_strain"]
 
 log = logging.getLogger(__name__)
 
-#: Residual, over the largest of the loads and reactions, at which a step has converged.
+#: Residual, over the largest load or internal force, at which a load step has converged.
 TOLERANCE = 1e-10
 #: Newton steps a load step may take.
 MAX_STEPS = 30
@@ -77,6 +79,8 @@ def solve_finite_strain(
     tol: float = TOLERANCE,
     max_steps: int = MAX_STEPS,
     start: ArrayLike | None = None,
+    follower: tuple[BoundaryFaces | Mapping[str, ArrayLike], float] | None = None,
+    closed: bool = True,
 ) -> NewtonSolution:
     """Solve the static equilibrium of a neo-Hookean body by Newton's method.
 
@@ -100,6 +104,11 @@ def solve_finite_strain(
         Newton steps per load step.
     start : array_like, shape (3N,), optional
         Displacements to start from (zero by default).
+    follower : (faces, pressure), optional
+        A pressure (Pa) on the deformed faces (:func:`fem.follower.follower_pressure`),
+        growing with the load steps as the loads do.
+    closed : bool
+        The follower's faces close a volume (its stiffness is then symmetric).
 
     Raises
     ------
@@ -124,8 +133,15 @@ def solve_finite_strain(
     for step in range(1, increments + 1):
         s = step / increments
         target = u0k + s * (uk - u0k)
-        r_ext = s * load
-        used, res, done = _newton(mesh, materials, u, k, target, free, r_ext, tol, max_steps)
+
+        def external(x: NDArray, s: float = s) -> tuple[NDArray, sp.csr_matrix | None]:
+            if follower is None:
+                return s * load, None
+            f, kp = follower_pressure(mesh, follower[0], s * follower[1], x, closed=closed)
+            return s * load + f, kp
+
+        used, res, done = _newton(mesh, materials, u, k, target, free, external, tol,
+                                  max_steps)
         steps.append(used)
         ok = ok and done
         if not done:
@@ -133,10 +149,10 @@ def solve_finite_strain(
                         res, used)
             break
     state = finite_strain(mesh, materials, u, stiffness=False)
-    return NewtonSolution(u.reshape(-1, 3), state.force - s * load, steps, res, ok)
+    return NewtonSolution(u.reshape(-1, 3), state.force - external(u)[0], steps, res, ok)
 
 
-def _newton(mesh, materials, u, k, target, free, r_ext, tol, max_steps):
+def _newton(mesh, materials, u, k, target, free, external, tol, max_steps):
     """Newton steps on ``u`` (in place) to equilibrium with ``u[k] = target``.
 
     Each step moves the prescribed DOFs the rest of the way to ``target`` and the free
@@ -147,16 +163,15 @@ def _newton(mesh, materials, u, k, target, free, r_ext, tol, max_steps):
     res = np.inf
     for it in range(max_steps + 1):
         state = finite_strain(mesh, materials, u)
-        r = state.force - r_ext
-        scale = max(float(np.abs(r_ext).max(initial=0.0)), float(np.abs(state.force).max()),
-                    1e-300)
-        res = float(np.abs(r[free]).max(initial=0.0)) / scale
+        f_ext, k_ext = external(u)
+        r = state.force - f_ext
+        res = _relative(r, f_ext, state.force, free)
         gap = target - u[k]
         if res <= tol and not np.abs(gap).max(initial=0.0):
             return it, res, True
         if it == max_steps:
             break
-        kt = state.stiffness
+        kt = state.stiffness if k_ext is None else (state.stiffness + k_ext).tocsr()
         k11 = kt[free][:, free]
         rhs = -r[free] - kt[free][:, k] @ gap
         try:
@@ -165,33 +180,40 @@ def _newton(mesh, materials, u, k, target, free, r_ext, tol, max_steps):
             du_free = factorize(k11, backend="superlu").solve(rhs)  # an indefinite tangent
         du = np.zeros_like(u)
         du[free], du[k] = du_free, gap
-        step = _searched(mesh, materials, u, du, r, r_ext, state.energy)
+        step = _searched(mesh, materials, u, du, free, external, float(np.linalg.norm(r[free])),
+                         bool(np.abs(gap).max(initial=0.0)))
         u += step * du
-        if step < 1.0:
-            continue
-        u[k] = target  # exactly, not to round-off
+        if step == 1.0:
+            u[k] = target  # exactly, not to round-off
     return max_steps, res, False
 
 
-def _searched(mesh, materials, u, du, r, r_ext, energy) -> float:
+def _relative(r: NDArray, f_ext: NDArray, f_int: NDArray, free: NDArray) -> float:
+    """The free DOFs' largest residual over the largest load or internal force."""
+    scale = max(float(np.abs(f_ext).max(initial=0.0)), float(np.abs(f_int).max(initial=0.0)),
+                1e-300)
+    return float(np.abs(r[free]).max(initial=0.0)) / scale
+
+
+def _searched(mesh, materials, u, du, free, external, size: float, moving: bool) -> float:
     """The fraction of the step ``du`` the line search takes.
 
-    Halved until the total potential falls (Armijo) and no cell turns inside out; the
-    whole step where the fall it predicts is round-off of the potential (Newton's
-    quadratic end).
+    Halved until no cell turns inside out and, once the prescribed DOFs are where they go
+    (``moving`` False), until the free DOFs' residual norm falls (Armijo on ``|r|^2``,
+    whose descent direction Newton's step is).
     """
-    slope = float(r @ du)
-    base = energy - float(r_ext @ u)
-    quadratic = abs(slope) <= 1e-9 * max(abs(base), 1e-300)
     step = 1.0
     for _ in range(HALVINGS):
         trial = u + step * du
         try:
-            e = finite_strain(mesh, materials, trial, stiffness=False).energy
+            f = finite_strain(mesh, materials, trial, stiffness=False).force
         except MaterialError:  # a cell turned inside out: shorter
             step *= 0.5
             continue
-        if quadratic or slope >= 0 or e - float(r_ext @ trial) <= base + 1e-4 * step * slope:
+        if moving:
+            return step
+        now = float(np.linalg.norm((f - external(trial)[0])[free]))
+        if now <= (1.0 - 1e-4 * step) * size:
             return step
         step *= 0.5
     return step
