@@ -72,7 +72,10 @@ def _probe(address: str, timeout: float) -> None:
             comm.abort()
 
     async def within() -> None:
-        await asyncio.wait_for(ask(), timeout)
+        try:
+            await asyncio.wait_for(ask(), timeout)
+        except asyncio.TimeoutError:  # not the builtin one before Python 3.11
+            raise TimeoutError(f"no answer within {timeout:g} s") from None
 
     pool = ThreadPoolExecutor(1)  # its own event loop, whatever loop the caller runs
     try:
