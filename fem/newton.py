@@ -116,12 +116,18 @@ def solve_finite_strain(
         Bad DOF indices or sizes.
     """
     n = mesh.n_dofs
-    k = np.unique(np.asarray(prescribed, dtype=np.int64).ravel())
+    given = np.asarray(prescribed, dtype=np.int64).ravel()
+    k, first = np.unique(given, return_index=True)  # sorted; a repeat takes its first value
     if k.size and (k.min() < 0 or k.max() >= n):
         raise SolverError(f"prescribed DOFs must lie in [0, {n}), got {k.min()}..{k.max()}")
-    uk = np.zeros(k.size) if values is None else np.broadcast_to(
-        np.asarray(values, dtype=np.float64), (k.size,)
-    )
+    uk = np.zeros(k.size)
+    if values is not None:
+        try:
+            uk = np.broadcast_to(np.asarray(values, dtype=np.float64), given.shape)[first]
+        except ValueError as exc:
+            raise SolverError(
+                f"values must be one number or one per prescribed DOF ({given.size})"
+            ) from exc
     load = np.zeros(n) if loads is None else np.asarray(loads, dtype=np.float64).ravel()
     if load.size != n:
         raise SolverError(f"loads must have {n} entries, got {load.size}")

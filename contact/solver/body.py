@@ -7,6 +7,7 @@ from functools import cached_property
 from typing import TYPE_CHECKING
 
 import numpy as np
+import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
 import fem
@@ -55,6 +56,9 @@ class ElasticBody:
     nodal_pressure : bool, optional
         Tetrahedra with averaged nodal pressures (no volumetric locking, about four times
         the stiffness's nonzeros; :mod:`fem.nodalpressure`), or plain (default).
+    stiffness : scipy.sparse matrix, optional
+        A stiffness to use instead of assembling the linear one (a finite-strain body's
+        tangent at its current placement, :mod:`contact.solver.finite`).
     """
 
     def __init__(
@@ -72,15 +76,23 @@ class ElasticBody:
         lazy: bool = True,
         bbar: bool = True,
         nodal_pressure: bool = False,
+        stiffness: sp.spmatrix | None = None,
     ) -> None:
         self.name = name
         self.mesh = mesh
         self.materials = materials
         self.bbar = bbar
         self.nodal_pressure = nodal_pressure
-        self.stiffness = fem.assemble_stiffness(
-            mesh, materials, bbar=bbar, nodal_pressure=nodal_pressure
-        )
+        if stiffness is None:
+            stiffness = fem.assemble_stiffness(
+                mesh, materials, bbar=bbar, nodal_pressure=nodal_pressure
+            )
+        elif stiffness.shape != (mesh.n_dofs, mesh.n_dofs):
+            raise ValueError(
+                f"{name}: stiffness must have shape ({mesh.n_dofs}, {mesh.n_dofs}), "
+                f"got {stiffness.shape}"
+            )
+        self.stiffness = sp.csr_matrix(stiffness)
         pres = None if prescribed is None else np.asarray(prescribed, dtype=np.int64)
         self.solver = fem.StaticSolver(
             self.stiffness,

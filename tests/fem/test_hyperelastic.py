@@ -164,3 +164,13 @@ def test_an_inverted_cell_is_named():
     u[:, 2] = -2.0 * mesh.points[:, 2]  # the box turned inside out through its bottom
     with pytest.raises(fem.MaterialError, match="hexahedron cell 0 is inverted"):
         finite_strain(mesh, fem.LinearElastic(E, 0.3), u)
+
+
+def test_prescribed_values_follow_their_dofs_in_any_order():
+    mesh = fem.box_mesh((1.0, 1.0, 1.0), (1, 1, 1))
+    bottom = np.flatnonzero(np.isclose(mesh.points[:, 2], 0.0))
+    top = np.flatnonzero(np.isclose(mesh.points[:, 2], 1.0))
+    k = np.concatenate([3 * top + 2, (3 * bottom[:, None] + np.arange(3)).ravel()])
+    v = np.concatenate([np.full(top.size, -0.1), np.zeros(3 * bottom.size)])
+    sol = solve_finite_strain(mesh, fem.LinearElastic(E, 0.3), prescribed=k, values=v)
+    assert np.allclose(sol.u[top, 2], -0.1) and np.allclose(sol.u[bottom], 0.0)

@@ -1,0 +1,273 @@
+"""Finite-strain frames: Newton's method on equilibrium, each linearisation solved in contact space.
+
+A neo-Hookean body (:class:`FiniteBody`, the law of :mod:`fem.hyperelastic`) is in balance
+at displacements ``u`` when ``f_int(u) = f_ext(u) + E(u)^T lambda``, its contacts closed
+where they push. Each Newton step linearises every such body at its current placement
+``x = X + u``: an :class:`~contact.solver.body.ElasticBody` whose mesh is the deformed one
+(so that the contact search, the gaps and the normals are measured there), whose
+stiffness is the tangent ``K_T(u)`` (with a follower pressure's) and whose loads are the
+forces out of balance ``f_ext(u) - f_int(u)``. The linear frame
+(:func:`contact.solver.iteration.solve_frame`) solves its contacts: its displacements are
+the step ``du``, its contact forces the total ones. The step is shortened where it would
+turn a cell inside out. Newton stops where the step is round-off of the body's size and
+the forces out of balance, contact forces included, round-off of its loads.
+
+Linear bodies may take part: each linearisation solves them whole, as a frame does.
+What this does not take yet: friction, force-driven planes, and a finite body held by
+its contacts alone. Such a body's tangent is not positive definite (a compressed body's
+turn lowers its energy until the contacts' rows hold it: the tangent on a statically
+determinate support of six DOFs has negative pivots from about 10 % strain), so its
+compliance needs the rigid modes taken out by projection and an indefinite
+factorisation; a finite body must have supports (a hand's flesh on its bones, a block
+on its base) and their prescribed displacements are zero (the bones where they were
+posed).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import ArrayLike, NDArray
+
+import fem
+from fem.follower import follower_pressure
+
+from ..errors import ContactError
+from ..geometry.plane import Plane
+from .body import ElasticBody
+from .iteration import solve_frame
+from .pairs import ContactPair
+from .results import FrameResult
+from .settings import ContactSettings
+
+__all__ = ["FiniteBody", "FiniteFrame", "solve_finite_frame"]
+
+#: Newton steps a frame may take.
+MAX_NEWTON = 30
+#: A step below this fraction of the body's size, with the residual below
+#: :data:`RESIDUAL` of the forces, has converged.
+STEP_TOL = 1e-9
+RESIDUAL = 1e-8
+#: Halvings of a step that would turn a cell inside out.
+HALVINGS = 20
+
+
+@dataclass(frozen=True)
+class FiniteBody:
+    """A neo-Hookean body: its reference mesh, materials, supports and loads.
+
+    Parameters are those of :class:`~contact.solver.body.ElasticBody` (the materials'
+    ``E, nu`` give the law's ``lambda, mu``), and ``follower``: a pressure on faces that
+    follows their deformation, ``(faces, pressure)`` with the faces counter-clockwise
+    seen from where it pushes (a hollow ball's inner surface, closed).
+    """
+
+    name: str
+    mesh: fem.Mesh
+    materials: fem.LinearElastic | Mapping[int, fem.LinearElastic]
+    prescribed: NDArray[np.int64] | None = None
+    loads: NDArray[np.float64] | None = None
+    follower: tuple[fem.BoundaryFaces | Mapping[str, ArrayLike], float] | None = None
+    contact_faces: fem.BoundaryFaces | None = None
+    supports: Mapping[str, ArrayLike] = field(default_factory=dict)
+
+    @property
+    def free(self) -> bool:
+        """True when nothing but contacts holds the body."""
+        return self.prescribed is None
+
+    def linearised(
+        self, u: NDArray[np.float64], springs: sp.spmatrix | None = None
+    ) -> ElasticBody:
+        """The body linearised at displacements ``u`` (see the module docstring).
+
+        ``springs``: a stiffness added to the tangent (the last closed contacts', see
+        :func:`_springs`).
+        """
+        state = fem.finite_strain(self.mesh, self.materials, u)
+        f_ext = np.zeros(self.mesh.n_dofs) if self.loads is None else self.loads.copy()
+        k = state.stiffness
+        if self.follower is not None:
+            f_p, k_p = follower_pressure(self.mesh, *self.follower, u, closed=True)
+            f_ext += f_p
+            k = (k + k_p).tocsr()
+        if springs is not None:
+            k = (k + springs).tocsr()
+        placed = fem.Mesh(self.mesh.points + u.reshape(-1, 3), self.mesh.cells,
+                          self.mesh.regions)
+        return ElasticBody(
+            self.name, placed, self.materials, prescribed=self.prescribed,
+            loads=f_ext - state.force, contact_faces=self.contact_faces,
+            supports=self.supports, stiffness=k,
+        )  # fmt: skip
+
+
+@dataclass(frozen=True)
+class FiniteFrame:
+    """A finite-strain frame's answer.
+
+    Attributes
+    ----------
+    result : FrameResult
+        The last linearisation's frame: its contacts and forces are the frame's, its
+        displacements the last step's.
+    displacement : dict of str to ndarray
+        Each body's displacement ``(N, 3)`` from its reference (m).
+    steps : int
+        Newton steps.
+    converged : bool
+    stop_reason : str
+        ``"converged"``, or why Newton stopped (a linearisation's own stop reason, or
+        the step limit with the last residual).
+    residual : float
+        The last forces out of balance over the forces' size.
+    """
+
+    result: FrameResult
+    displacement: dict[str, NDArray[np.float64]]
+    steps: int
+    converged: bool
+    stop_reason: str
+    residual: float
+
+
+def solve_finite_frame(
+    bodies: Sequence[FiniteBody | ElasticBody],
+    pairs: Sequence[ContactPair],
+    planes: Sequence[Plane] = (),
+    settings: ContactSettings | None = None,
+    *,
+    start: Mapping[str, ArrayLike] | None = None,
+    max_steps: int = MAX_NEWTON,
+) -> FiniteFrame:
+    """Resolve one frame's contacts with finite-strain bodies by Newton's method.
+
+    Parameters
+    ----------
+    bodies : sequence of FiniteBody or ElasticBody
+    pairs : sequence of ContactPair
+        As for :func:`~contact.solver.iteration.solve_frame`, naming these bodies.
+    planes : sequence of Plane
+    settings : ContactSettings, optional
+    start : mapping of str to array_like, optional
+        Finite bodies' displacements to start from (the last frame's), zero otherwise.
+    max_steps : int
+
+    Raises
+    ------
+    ContactError
+        Friction, a force-driven plane or a free finite body (not taken yet).
+    """
+    if any(p.friction for p in pairs) or any(pl.force is not None for pl in planes):
+        raise ContactError(
+            "finite-strain frames take frictionless pairs and planes at given motions only"
+        )
+    finite = [b for b in bodies if isinstance(b, FiniteBody)]
+    for b in finite:
+        if b.free:
+            raise ContactError(
+                f"{b.name}: a finite-strain body needs supports (prescribed DOFs); one held "
+                "by its contacts alone is not taken yet"
+            )
+    u = {
+        b.name: np.asarray((start or {}).get(b.name, np.zeros(b.mesh.n_dofs)), float).ravel()
+        for b in finite
+    }
+    size = {b.name: float(np.ptp(b.mesh.points, axis=0).max()) for b in finite}
+    res, residual, stop = None, np.inf, "iteration limit"
+    springs: dict[str, sp.csr_matrix] = {}
+    for step in range(1, max_steps + 1):
+        lin = {b.name: b.linearised(u[b.name], springs.get(b.name)) for b in finite}
+        now = [lin.get(b.name, b) for b in bodies]
+        paired = [
+            replace(p, slave=lin.get(p.slave.name, p.slave),
+                    master=lin.get(p.master.name, p.master) if not p.rigid else p.master)
+            for p in pairs
+        ]  # fmt: skip
+        try:
+            res = solve_frame(now, paired, planes, settings)
+        except fem.SolverError as exc:
+            stop = f"a finite body's tangent could not be factored at this strain: {exc}"
+            break
+        springs = {b.name: _springs(b, res, lin[b.name]) for b in finite}
+        if not res.converged:
+            stop = res.stop_reason
+            break
+        moves = {}
+        for b in finite:
+            du = res.displacement[b.name].ravel()
+            moves[b.name] = float(np.abs(du).max(initial=0.0)) / size[b.name]
+            u[b.name] = u[b.name] + _inside_out_safe(b, u[b.name], du)
+        residual = max(
+            (_residual(b, u[b.name], res.contact_force[b.name]) for b in finite), default=0.0
+        )
+        if max(moves.values(), default=0.0) <= STEP_TOL and residual <= RESIDUAL:
+            stop = "converged"
+            return FiniteFrame(res, _all(bodies, u, res), step, True, stop, residual)
+    if res is None:
+        raise ContactError(stop)
+    if stop == "iteration limit":
+        stop = f"Newton did not converge in {max_steps} steps (residual {residual:.2g})"
+    return FiniteFrame(res, _all(bodies, u, res), max_steps, False, stop, residual)
+
+
+def _springs(body: FiniteBody, res: FrameResult, lin: ElasticBody) -> sp.csr_matrix:
+    """Springs along the normals of ``body``'s closed contacts, for the next linearisation.
+
+    A compressed body's tangent alone is not positive definite (a column fixed at its
+    base sways); its contacts hold it, but its compliance is factored without them. A
+    spring ``k n n^T`` at each node the last solve closed (``k`` the stiffness's largest
+    diagonal entry) holds it there. The step it changes is only the part along a closed
+    row, which that row fixes anyway: against a plane the step is Newton's; the springs'
+    force is a step's, so nothing of them is left at convergence (``du = 0``).
+    """
+    c = res.contacts
+    n = body.mesh.n_dofs
+    mine = np.array([str(p).split("/")[0] == body.name for p in c.get("pair", [])], bool)
+    if not mine.any():
+        return sp.csr_matrix((n, n))
+    nodes = np.asarray(c["node"])[mine]
+    normal = np.asarray(c["normal"], float)[mine]
+    k = float(lin.stiffness.diagonal().max())
+    blocks = k * normal[:, :, None] * normal[:, None, :]
+    dofs = 3 * nodes[:, None] + np.arange(3)
+    rows = np.repeat(dofs, 3, axis=1).ravel()
+    cols = np.tile(dofs, 3).ravel()
+    return sp.csr_matrix((blocks.ravel(), (rows, cols)), shape=(n, n))
+
+
+def _inside_out_safe(body: FiniteBody, u: NDArray, du: NDArray) -> NDArray:
+    """``du``, halved until no cell of ``body`` turns inside out at ``u + du``."""
+    for _ in range(HALVINGS):
+        try:
+            fem.finite_strain(body.mesh, body.materials, u + du, stiffness=False)
+        except fem.MaterialError:
+            du = du / 2
+            continue
+        return du
+    return du
+
+
+def _residual(body: FiniteBody, u: NDArray, contact: NDArray) -> float:
+    """The free DOFs' forces out of balance at ``u`` with ``contact`` forces, relative."""
+    f_int = fem.finite_strain(body.mesh, body.materials, u, stiffness=False).force
+    f_ext = np.zeros_like(f_int) if body.loads is None else body.loads.copy()
+    if body.follower is not None:
+        f_ext += follower_pressure(body.mesh, *body.follower, u)[0]
+    r = f_int - f_ext - np.asarray(contact, float).ravel()
+    if body.prescribed is not None:
+        r[body.prescribed] = 0.0
+    scale = max(float(np.abs(f_int).max()), float(np.abs(f_ext).max(initial=0.0)),
+                float(np.abs(contact).max(initial=0.0)), 1e-300)
+    return float(np.abs(r).max()) / scale
+
+
+def _all(bodies, u, res: FrameResult) -> dict[str, NDArray[np.float64]]:
+    """Every body's displacement: the finite ones' totals, the linear ones' last solve."""
+    return {
+        b.name: u[b.name].reshape(-1, 3) if b.name in u else res.displacement[b.name]
+        for b in bodies
+    }
