@@ -12,18 +12,12 @@ import pytest
 
 import contact.grasp
 from contact.errors import SceneError
-from contact.geometry.plane import Plane
 from contact.grasp import main
 from contact.leastgrip import BOUND, MAX_TRIALS, LeastGrip, Trial, judge, least_grip, measure
 from contact.leastgrip import search as grip_search
 from contact.report import LEAST_GRIP_KEYS, least_grip_line, parse_line
 from contact.run import GraspRun
 from contact.scene.read import load_scene
-
-READY = (
-    "force" in getattr(Plane, "__dataclass_fields__", {})
-    and Path("/work/tools/driven_ready").exists()
-)
 
 PADS = """
 [scene]
@@ -338,11 +332,6 @@ def test_least_grip_line_when_none_held() -> None:
 # --- the proof: two force-driven pads, gravity along them ----------------------------
 
 
-@pytest.mark.skipif(
-    not READY,
-    reason="needs force-driven planes in the solver (contact.geometry.plane.Plane.force "
-    "and /work/tools/driven_ready)",
-)
 def test_pads_least_grip_is_m_g_over_2_mu(tmp_path: Path) -> None:
     mu = 0.5
     constant = "force = [[0.0, 1.0]]"  # 1 N on each pad
