@@ -169,5 +169,4 @@ def test_mutated_sweep_files_never_raise(tmp_path, monkeypatch, capsys, chunk):
         else:
             assert err == "", where
             assert any(case.glob("*/sweep.csv")) and any(case.glob("*/sweep.png")), where
-    print(seen)
     assert seen[2] > CASES // CHUNKS // 2 and seen[0] + seen[1] > 0, seen  # both paths taken
