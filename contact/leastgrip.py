@@ -159,14 +159,14 @@ def measure(result: FrameResult, scene: Scene, body: str | None = None) -> float
     Held: the sum of ``mu N`` over the body's contacts over the sum of the magnitudes of
     the tangential forces of its pairs. Not held by friction (:attr:`FrameResult.slip`):
     ``C / (C + F)``, ``C`` the friction available and ``F`` the load its contacts did not
-    carry (:func:`contact.solver.coulomb.unheld`). Both are 1 at the slip limit and grow about
+    carry (:func:`contact.solver.coulomb.unheld`): forces where it slides, moments where
+    it turns. Both are 1 at the slip limit and grow about
     in proportion to the grip. None where the frame gives neither (no friction used, or
     a stop for another reason).
     """
     slip = result.slip
     if slip is not None:  # not held: the friction its contacts had, the load they left
-        if slip.get("turns"):
-            return None  # a moment (N m) left: not a load to weigh against mu N
+        # (forces where it slides; moments, sum mu N r, where it turns)
         f, c = float(slip["not_carried"]), float(slip["available"])
         return c / (c + f) if c + f > 0 else None
     if result.held is not True or result.friction is None:

@@ -191,9 +191,12 @@ def test_measure_of_a_slip_and_a_hold(tmp_path: Path) -> None:
     )
     slip = {"direction": [0.0, 0.0, -1.0], "not_carried": 0.1, "available": 0.3}
     assert measure(fake(stop, False, False, slip=slip), scene) == pytest.approx(0.75)
-    # a moment left (it turns): no load to weigh against mu N
-    turns = {**slip, "turns": True}
-    assert measure(fake("not held: ball turns", False, False, slip=turns), scene) is None
+    # a moment left (it turns): the moment its cones had, sum mu N r, against it (N m)
+    turns = {"direction": [0.0, 0.0, 1.0], "not_carried": 0.001, "available": 0.004,
+             "turns": True}
+    assert measure(fake("not held: ball turns", False, False, slip=turns), scene) == (
+        pytest.approx(0.8)
+    )
     friction = SimpleNamespace(
         tangential_force={
             "ball/left_pad": np.array([0.0, 0.0, 0.2]),

@@ -252,15 +252,20 @@ def _bone_forces(result: FrameResult) -> dict[str, dict[str, Any]]:
 def _slip(result: FrameResult) -> dict[str, Any] | None:
     """A frictional frame's slip: the largest slip increment (m) and, not held, which way.
 
-    ``direction``, ``not_carried`` and ``available`` (N) where friction did not hold a
-    free body (:attr:`FrameResult.slip`), else None; ``largest_increment`` the largest
-    slip of a contact in the frame. None without friction.
+    ``motion`` (``"slides"`` or ``"turns"``), ``direction`` (the way it slides, or the
+    axis it turns about), ``not_carried`` and ``available`` (N where it slides, N m where
+    it turns) where friction did not hold a free body (:attr:`FrameResult.slip`), else
+    None; ``largest_increment`` the largest slip of a contact in the frame. None without
+    friction.
     """
     if result.friction is None and result.slip is None:
         return None
-    out: dict[str, Any] = {"direction": None, "not_carried": None, "available": None}
+    out: dict[str, Any] = {
+        "motion": None, "direction": None, "not_carried": None, "available": None
+    }
     if result.slip is not None:
         out.update({k: result.slip[k] for k in ("direction", "not_carried", "available")})
+        out["motion"] = "turns" if result.slip.get("turns") else "slides"
     out["largest_increment"] = (
         None if result.friction is None else float(result.friction.max_slip)
     )

@@ -105,9 +105,12 @@ class Slip:
     direction : ndarray, shape (3,)
         The unit direction of the load its contacts leave: the way it slips.
     not_carried : float
-        That load (N).
+        That load (N), or moment (N m) where it turns.
     available : float
-        The friction its contacts had, ``sum mu N`` (N).
+        The friction its contacts had against that motion: ``sum mu N`` (N), or where it
+        turns ``sum mu N r`` (N m, ``r`` each contact's distance from the axis).
+    turns : bool
+        Only a moment is left: the body turns about ``direction``.
     """
 
     body: str
@@ -127,8 +130,8 @@ class Slip:
         if self.turns:
             return (
                 f"not held: {self.body} turns about {way}: {self.not_carried:.4g} N m of the "
-                "moment of its loads is not carried by its contacts (friction available sum "
-                f"mu N = {self.available:.4g} N)"
+                "moment of its loads is not carried by its contacts (friction's moment "
+                f"available sum mu N r = {self.available:.4g} N m)"
             )
         return (
             f"not held: {self.body} slips along {way}: {self.not_carried:.4g} N of its load "
@@ -137,7 +140,7 @@ class Slip:
         )
 
     def record(self) -> dict:
-        """As plain JSON types (``not_carried`` in N m where it turns)."""
+        """As plain JSON types (``not_carried`` and ``available`` in N m where it turns)."""
         return {
             "body": self.body,
             "direction": [float(x) for x in self.direction],
@@ -189,7 +192,12 @@ def unheld(frame, space: ContactSpace, friction: Friction, rows: ContactRows) ->
 def _worst_slip(
     frame, space: ContactSpace, rows: ContactRows, res: FrictionResult, carried: NDArray
 ) -> Slip | None:
-    """The free body whose spring carries the most of its loads (``carried``), or None."""
+    """The free body whose spring carries the most of its loads (``carried``), or None.
+
+    Its friction available is ``sum mu N`` (N) where a force is left, and ``sum mu N r``
+    (N m, ``r`` each contact's distance from the axis through its centroid) where only a
+    moment is: what its cones could carry against that motion.
+    """
     net = space.net_wrenches(carried)  # what the springs hold
     worst: Slip | None = None
     for body in frame.bodies:
@@ -201,19 +209,33 @@ def _worst_slip(
         for i, pair in enumerate(frame.pairs):
             if pair.slave is body or pair.master is body:
                 mine[rows.pair == i] = pair.friction
-        capacity = float(np.sum(mine * res.lam[: len(rows)]))
+        cones = mine * res.lam[: len(rows)]
+        capacity = float(np.sum(cones))
         load = float(np.linalg.norm(body.loads.reshape(-1, 3).sum(axis=0)))
         scale = UNBALANCED * max(load, capacity, 1e-300)
         # a moment over the body's size weighs as a force: its turn at its surface
-        x = body.mesh.points - body.mesh.points.mean(axis=0)
-        reach = float(np.linalg.norm(x, axis=1).max(initial=0.0)) or 1.0
+        centre = body.mesh.points.mean(axis=0)
+        reach = float(np.linalg.norm(body.mesh.points - centre, axis=1).max(initial=0.0)) or 1.0
         turn = float(np.linalg.norm(moment))
         if size > scale:  # the net force the contacts leave: the way it slips
             slip = Slip(body.name, f / size, size, capacity)
         elif turn / reach > scale:
-            slip = Slip(body.name, moment / turn, turn, capacity, turns=True)
+            axis = moment / turn
+            arm = _arms(frame, rows, centre, axis)
+            slip = Slip(body.name, axis, turn, float(np.sum(cones * arm)), turns=True)
         else:
             continue
         if worst is None or slip.not_carried > worst.not_carried:
             worst = slip
     return worst
+
+
+def _arms(frame, rows: ContactRows, centre: NDArray, axis: NDArray) -> NDArray:
+    """Each row's distance (m) from the axis ``axis`` through ``centre``, at its slave node."""
+    points = np.empty((len(rows), 3))
+    for i, pair in enumerate(frame.pairs):
+        sel = rows.pair == i
+        if sel.any():
+            points[sel] = pair.slave.mesh.points[rows.node[sel]]
+    d = points - centre
+    return np.linalg.norm(d - np.outer(d @ axis, axis), axis=1)
