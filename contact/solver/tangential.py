@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 
 from .anchors import Anchors
 from .delassus import BodyState, ContactSpace
-from .friction import FrictionResult, solve_friction
+from .friction import STICK, FrictionResult, solve_friction
 from .rows import ContactRows
 
 __all__ = ["Friction", "couples", "end_anchors", "friction_zone", "tangent_basis"]
@@ -266,10 +266,12 @@ class Friction:
                 self.mu = chosen
                 break
         self.system = (sys_, mu, tangent)
-        # the rows that bind: every normal row, a closed contact's tangential rows
+        # the rows that bind: every normal row, a closed contact's tangential rows (only a
+        # stuck one's where the solve found no balance: a slide that nothing settled is
+        # no place, and the body is left where its stuck and pushing rows hold it)
         bound = np.zeros(len(full), dtype=bool)
         bound[: len(rows)] = True
-        grip = (res.status > 0) & (tangent[:, 0] >= 0)
+        grip = ((res.status > 0) if res.solved else (res.status == STICK)) & (tangent[:, 0] >= 0)
         bound[tangent[grip].ravel()] = True
         return res, space.states(e, res.lam, res.a, bound, sys_.g), e, full, tangent
 
