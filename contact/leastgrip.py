@@ -21,10 +21,14 @@ outside a bracket), which bounds the number of trials however noisy ``h`` is.
 
 A verdict is a promise: a trial holds only when every frame is held and converged (a
 frame whose bone passes its limit is converged and counts as held: its contacts hold the
-ball; the frame's own verdict says the bone is overloaded). A frame that fails for any
-other reason (iteration limit, friction that did not settle, bad input) counts as not
-held, without a measure: the search then goes on by bisection, and the least grip
-reported is always a scale that was run and held.
+ball; the frame's own verdict says the bone is overloaded). A trial whose ball slips or
+turns brackets the answer from below; one that fails for another reason (friction that
+did not settle, a finger force not reached, an iteration limit, bad input) says nothing
+of the grip and never brackets it: the search steps past it, and where only such trials
+lie below the least grip that held, the answer is not found (``limit = "solver"``),
+unless the cones there are full (friction available over needed within
+:data:`FULL` of 1). The answer names what limits it (:attr:`LeastGrip.limit`) and the
+frame that does, with the forces there.
 """
 
 from __future__ import annotations
@@ -42,6 +46,7 @@ from .solver.results import FrameResult
 
 __all__ = [
     "BOUND",
+    "FULL",
     "MAX_TRIALS",
     "LeastGrip",
     "Trial",
@@ -55,6 +60,9 @@ __all__ = [
 BOUND = 64.0
 #: The most trials one search runs: bisection alone brackets 1 % of a 64x range in 13.
 MAX_TRIALS = 40
+#: Friction available over needed within this of 1: the cones are full (the grip's
+#: limit is friction whatever the trials below it did).
+FULL = 0.02
 
 @dataclass(frozen=True)
 class Trial:
@@ -74,6 +82,10 @@ class Trial:
         The first frame not held, None where all are.
     reason : str
         That frame's stop reason, or ``"held"``.
+    hardest : float or None
+        The frame that limits it: the first not held, else the one with the least ``h``.
+    bone : bool
+        A frame of it had a bone past its limit.
     """
 
     scale: float
@@ -82,11 +94,29 @@ class Trial:
     solves: int = 0
     time: float | None = None
     reason: str = "held"
+    hardest: float | None = None
+    bone: bool = False
 
     @property
     def slipped(self) -> bool:
-        """The trial failed because the ball slips (not for another reason)."""
-        return not self.holds and self.reason.startswith("not held")
+        """The trial failed because the ball slips or turns (not for another reason)."""
+        return self.kind in ("friction", "rotation")
+
+    @property
+    def kind(self) -> str:
+        """How it ended: ``"held"``, ``"friction"``, ``"rotation"`` or ``"solver"``.
+
+        The ball slides (friction), turns or turned past what the linear model describes
+        (rotation), or the frame stopped for another reason (solver).
+        """
+        if self.holds:
+            return "held"
+        r = self.reason
+        if r.startswith("not held"):
+            return "rotation" if " turns" in r else "friction"
+        if " turned " in r and "past the" in r:
+            return "rotation"
+        return "solver"
 
 
 @dataclass(frozen=True)
@@ -115,6 +145,15 @@ class LeastGrip:
         The bracket is within the tolerance.
     note : str
         What the search found, in words.
+    limit : str or None
+        What sets the answer: ``"friction"`` (a grip just below slips), ``"rotation"``
+        (just below, the ball turns), ``"bone"`` (the grip that holds takes a bone past
+        its limit) or ``"solver"`` (the trials below did not settle: not found); None
+        where nothing held.
+    frame : float or None
+        The time of the frame that limits the answer (the hardest of ``hi``'s trial).
+    frame_forces : dict of str to float
+        Each force-driven element's force at that frame (N).
     trials : tuple of Trial
         Every trial, in the order run.
     """
@@ -129,6 +168,9 @@ class LeastGrip:
     seconds: float
     found: bool
     note: str
+    limit: str | None = None
+    frame: float | None = None
+    frame_forces: dict[str, float] = field(default_factory=dict)
     trials: tuple[Trial, ...] = field(default=(), repr=False)
 
     def record(self) -> dict:
@@ -143,9 +185,11 @@ class LeastGrip:
             "bracket": [self.lo, self.hi],
             "found": self.found,
             "note": self.note,
+            "limit": self.limit,
+            "limiting_frame": {"time": self.frame, "forces": dict(self.frame_forces)},
             "trials": [
                 {"scale": t.scale, "holds": t.holds, "h": t.h, "solves": t.solves,
-                 "time": t.time, "reason": t.reason}
+                 "time": t.time, "reason": t.reason, "kind": t.kind}
                 for t in self.trials
             ],
         }  # fmt: skip
@@ -224,11 +268,13 @@ def judge(
         The scene (for the pairs' friction).
     """
     hs = [measure(r, scene) for r in results]
-    known = [h for h in hs if h is not None]
+    bone = any(bool(r.over_limit) for r in results)
     for t, r, h in zip(times, results, hs, strict=False):
         if not _holds(r):
-            return Trial(scale, False, h, len(results), t, str(r.stop_reason))
-    return Trial(scale, True, min(known) if known else None, len(results))
+            return Trial(scale, False, h, len(results), t, str(r.stop_reason), t, bone)
+    known = [(h, t) for h, t in zip(hs, times, strict=False) if h is not None]
+    h, hardest = min(known) if known else (None, times[-1] if len(times) else None)
+    return Trial(scale, True, h, len(results), hardest=hardest, bone=bone)
 
 
 def _trial(run: GraspRun, frames: Sequence[float], scale: float) -> Trial:
@@ -288,7 +334,10 @@ def least_grip(
     if out.scale is None:
         return out
     forces = {k: v * out.scale for k, v in grip.items()}
-    return replace(out, forces=forces)
+    at = {}
+    if out.frame is not None:
+        at = {k: v * out.scale for k, v in run.scene.grip_at(out.frame).items()}
+    return replace(out, forces=forces, frame_forces=at)
 
 
 def search(
@@ -309,8 +358,9 @@ def search(
     limit = MAX_TRIALS if max_trials is None else max_trials
     t0 = time.perf_counter()
     trials: list[Trial] = []
-    lo: Trial | None = None  # the largest scale that did not hold
+    lo: Trial | None = None  # the largest scale that slipped or turned
     hi: Trial | None = None  # the smallest scale that held
+    below: Trial | None = None  # the largest scale under hi that did not settle
     weights = [1.0, 1.0]  # Illinois: lo's and hi's measure weights
     streak = 0  # trials in a row on the same side
 
@@ -329,32 +379,53 @@ def search(
         # Illinois: the end kept twice in a row counts half in the regula falsi
         if last.holds:
             hi, weights[1] = last, 1.0
-        else:
+            below = below if below is not None and below.scale < hi.scale else None
+        elif last.slipped:
             lo, weights[0] = last, 1.0
+        elif hi is None or last.scale < hi.scale:
+            below = last if below is None or last.scale > below.scale else below
         if same:
             weights[0 if last.holds else 1] /= 2
         if hi is not None and lo is not None and (hi.scale - lo.scale) / hi.scale <= tol:
-            note = f"held at {hi.scale:.4g}x, not at {lo.scale:.4g}x"
+            note = f"held at {hi.scale:.4g}x, not at {lo.scale:.4g}x ({lo.kind})"
+            break
+        under = _under(lo, below)
+        if hi is not None and under is not None and (hi.scale - under.scale) / hi.scale <= tol:
+            note = (
+                f"held at {hi.scale:.4g}x; below it the trials did not settle "
+                f"({under.scale:.4g}x: {under.reason.split(':')[0]})"
+            )
             break
         if len(trials) >= limit:
             note = f"stopped after {len(trials)} trials"
             break
+        under = _under(lo, below)
         if hi is None:
-            assert lo is not None
-            if lo.scale >= bound * (1 - 1e-12):
+            assert under is not None
+            if under.scale >= bound * (1 - 1e-12):
                 note = f"no grip up to {bound:g}x holds"
                 break
-            s = _up(lo, bound, tol, streak)
-        elif lo is None:
+            s = _up(under, bound, tol, streak)
+        elif under is None:
             if hi.scale <= floor * (1 + 1e-12):
                 note = f"held down to {floor:g}x: the least grip is below it"
                 break
             s = _down(hi, floor, tol, streak)
         else:
-            s = _between(lo, hi, weights, last.holds, tol, streak)
+            s = _between(under, hi, weights, last.holds, tol, streak)
         last = run(s)
-    found = hi is not None and lo is not None and (hi.scale - lo.scale) / hi.scale <= tol
+    bracketed = hi is not None and lo is not None and (hi.scale - lo.scale) / hi.scale <= tol
+    full = hi is not None and hi.h is not None and abs(hi.h - 1.0) <= FULL
+    found = bracketed or full
     scale = None if hi is None else hi.scale
+    if hi is None:
+        why = None
+    elif hi.bone:
+        why = "bone"
+    elif bracketed:
+        why = lo.kind if lo is not None else None
+    else:
+        why = "friction" if full else "solver"
     return LeastGrip(
         scale=scale,
         forces={},
@@ -366,8 +437,21 @@ def search(
         seconds=time.perf_counter() - t0,
         found=found,
         note=note,
+        limit=why,
+        frame=None if hi is None else hi.hardest,
         trials=tuple(trials),
     )
+
+
+def _under(lo: Trial | None, below: Trial | None) -> Trial | None:
+    """The trial under the answer that the next scale steps up from.
+
+    The higher of the last that slipped and the last that did not settle (which brackets
+    nothing).
+    """
+    if lo is None or below is None:
+        return lo or below
+    return below if below.scale > lo.scale else lo
 
 
 def _estimate(tr: Trial) -> float | None:

@@ -68,7 +68,7 @@ FRAME_KEYS = (
 SUMMARY_KEYS = ("frames", "converged", "held", "realistic", "verdict", "results")
 #: The keys of the least grip's line, in order.
 LEAST_GRIP_KEYS = (
-    "least_grip", "margin", "forces_N", "bracket", "steps", "solves", "s", "note",
+    "least_grip", "margin", "forces_N", "bracket", "limit", "steps", "solves", "s", "note",
 )  # fmt: skip
 
 
@@ -167,6 +167,7 @@ def least_grip_line(record: Mapping[str, Any]) -> str:
         _opt(record["margin"]),
         ",".join(f"{k}:{_num(v)}" for k, v in forces.items()) or "-",
         f"{_opt(lo)}..{_opt(hi)}",
+        record.get("limit") or "-",
         record["steps"],
         record["solves"],
         f"{float(record['seconds']):.2f}",

@@ -157,12 +157,34 @@ def test_max_trials_stops_it() -> None:
     assert out.steps == 3 and not out.found and "stopped after 3" in out.note
 
 
-def test_a_failure_other_than_slip_counts_as_not_held() -> None:
-    out = grip_search(threshold(0.5, other=0.3))
-    check_bracket(out)
-    # what held was run and held; the failures pushed the bracket up, never down
-    assert out.scale >= 0.5
-    assert any(t.reason == "iteration limit" and not t.slipped for t in out.trials)
+def test_a_trial_that_did_not_settle_never_brackets_the_answer() -> None:
+    # below the threshold, within 30 % of it, every trial stops on a solver limit
+    out = grip_search(threshold(0.5, other=0.3, h=False))
+    assert out.scale >= 0.5 and not out.found and out.limit == "solver"
+    assert out.lo <= 0.5 * 0.7  # only a trial that slipped brackets it
+    unsettled = [t for t in out.trials if t.kind == "solver"]
+    assert unsettled and all(0.35 <= t.scale < 0.5 for t in unsettled)
+    assert "did not settle" in out.note
+    # with the cones full at the answer, friction is the limit all the same
+    full = grip_search(threshold(0.5, other=0.3))
+    assert full.found and full.limit == "friction"
+
+
+def test_the_answer_names_its_limit() -> None:
+    assert grip_search(threshold(0.362)).limit == "friction"
+
+    def turns(s: float) -> Trial:
+        if s >= 0.362:
+            return Trial(s, True, s / 0.362, 1, hardest=1.0)
+        return Trial(s, False, None, 1, 1.0, "ball turned 8 deg, past the 5.73 deg ...")
+
+    assert grip_search(turns).limit == "rotation"
+
+    def bone(s: float) -> Trial:
+        return Trial(s, s >= 0.362, s / 0.362, 1, None if s >= 0.362 else 1.0,
+                     "held" if s >= 0.362 else "not held: x", bone=True)
+
+    assert grip_search(bone).limit == "bone"
 
 
 def test_first_trial_is_reused() -> None:
@@ -179,7 +201,7 @@ def test_first_trial_is_reused() -> None:
 def fake(stop="converged", held=True, converged=True, friction=None, contacts=None, slip=None):
     return SimpleNamespace(
         stop_reason=stop, held=held, converged=converged, friction=friction, contacts=contacts,
-        slip=slip,
+        slip=slip, over_limit={},
     )
 
 
@@ -355,3 +377,22 @@ def test_pads_least_grip_is_m_g_over_2_mu(tmp_path: Path) -> None:
     assert stop.startswith("not held") and "slips along" in stop
     z = float(stop.split("slips along (")[1].split(")")[0].split(",")[2])
     assert z < 0
+
+
+def test_pads_least_grip_names_friction_and_the_frame_that_limits_it(tmp_path: Path) -> None:
+    # the grip ramps from 1 N at t = 1 to 4 N at t = 2: the first frame limits it, where
+    # each pad needs m g / (2 mu); the peak force is four times that
+    mu = 0.5
+    ramp = "force = [[1.0, 1.0], [2.0, 4.0]]"
+    scene = load_scene(pads(tmp_path, mu=mu, left=ramp, right=ramp))
+    run = GraspRun(scene)
+    weight = -float(run.ball_body(1.0).loads.reshape(-1, 3).sum(axis=0)[2])
+    out = least_grip(run, [1.0, 2.0])
+    check_bracket(out)
+    assert out.limit == "friction" and out.frame == 1.0
+    exact = weight / (2 * mu)
+    for name in ("left_pad", "right_pad"):
+        assert out.frame_forces[name] == pytest.approx(exact, rel=0.01)
+        assert out.forces[name] == pytest.approx(4 * exact, rel=0.01)
+    rec = out.record()
+    assert rec["limit"] == "friction" and rec["limiting_frame"]["time"] == 1.0

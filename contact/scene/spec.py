@@ -212,6 +212,14 @@ class Scene:
             )
         return peaks
 
+    def grip_at(self, time: float) -> dict[str, float]:
+        """Each force-driven element's own force (N) at ``time``, by name (as :attr:`grip`)."""
+        out = {p.name: p.force_at(time) for p in self.planes if p.driven}
+        for a in self.hand.auto_flexion if self.hand is not None else ():
+            if a.force is not None:
+                out[a.joint] = max(out.get(a.joint, 0.0), a.force)
+        return out
+
     def grip_scaled(self, s: float) -> Scene:
         """A copy with every force-driven plane's and finger's force times ``s`` (> 0).
 
