@@ -140,6 +140,7 @@ def finite_strain(
     u: ArrayLike,
     *,
     stiffness: bool = True,
+    tangent: str = "full",
 ) -> FiniteStrain:
     """The neo-Hookean energy, internal forces and tangent of ``mesh`` at ``u`` (see module).
 
@@ -152,6 +153,11 @@ def finite_strain(
         Displacements from the mesh's points (m).
     stiffness : bool
         Assemble the tangent too (False: an empty matrix, for line searches).
+    tangent : {"full", "material"}
+        ``"material"`` leaves out the initial-stress terms (the stress's own ``G S G^T``
+        and the averaged volumes' curvature): positive semidefinite, with the six rigid
+        modes of the current placement exactly as its null space, as a free body's
+        solver needs; not Newton's exact tangent.
 
     Raises
     ------
@@ -182,6 +188,8 @@ def finite_strain(
             )
         fi = inv3(np.eye(3) + hg, j)
         w, p, a = neo_hookean(hg, (lam - kappa)[:, None], mu[:, None])
+        if tangent == "material":  # A less d_ik S_jl, S = F^-1 P
+            a = a - np.einsum("ik,eqjl->eqijkl", np.eye(3), fi @ p)
         energy += float((w * wdet).sum())
         np.add.at(force, conn, np.einsum("eq,eqij,eqaj->eai", wdet, p, g))
         vol0 = wdet.sum(axis=1)
@@ -203,6 +211,8 @@ def finite_strain(
             group_kv.append(kappa * vol0)
             n_groups += m
             kb = _group_slope(dvol, vol0, kappa)[:, None, None, None, None] * h
+            if tangent == "material":
+                kb = np.zeros(h.shape)
         if stiffness:
             kb = kb + np.einsum("eq,eqaj,eqijkl,eqbl->eabik", wdet, g, a, g, optimize=True)
             ke = kb.transpose(0, 1, 3, 2, 4).reshape(len(conn), dofs.shape[1], dofs.shape[1])
@@ -230,7 +240,7 @@ def finite_strain(
             slope = _group_slope(vn[on], vol_n[on], kv_n[on] / vol_n[on])
             node_slope = np.zeros(n)
             node_slope[on] = slope
-            ce = node_slope[conn].sum(axis=1) / 4.0
+            ce = node_slope[conn].sum(axis=1) / 4.0 * (tangent != "material")
             ke = (ce[:, None, None, None, None] * h).transpose(0, 1, 3, 2, 4).reshape(m, 12, 12)
             rows.append(np.repeat(dofs, 12, axis=1).ravel())
             cols.append(np.tile(dofs, 12).ravel())

@@ -87,14 +87,17 @@ class FiniteBody:
         ``springs``: a stiffness added to the tangent (the last closed contacts', see
         :func:`_springs`).
         """
-        state = fem.finite_strain(self.mesh, self.materials, u)
+        # a free body: the material tangent, whose null space is exactly its rigid modes
+        tangent = "material" if self.free else "full"
+        state = fem.finite_strain(self.mesh, self.materials, u, tangent=tangent)
         f_ext = np.zeros(self.mesh.n_dofs) if self.loads is None else self.loads.copy()
         k = state.stiffness
         if self.follower is not None:
             f_p, k_p = follower_pressure(self.mesh, *self.follower, u, closed=True)
             f_ext += f_p
-            k = (k + k_p).tocsr()
-        if springs is not None:
+            if not self.free:
+                k = (k + k_p).tocsr()
+        if springs is not None and not self.free:
             k = (k + springs).tocsr()
         placed = fem.Mesh(self.mesh.points + u.reshape(-1, 3), self.mesh.cells,
                           self.mesh.regions)
@@ -166,12 +169,6 @@ def solve_finite_frame(
             "finite-strain frames take frictionless pairs and planes at given motions only"
         )
     finite = [b for b in bodies if isinstance(b, FiniteBody)]
-    for b in finite:
-        if b.free:
-            raise ContactError(
-                f"{b.name}: a finite-strain body needs supports (prescribed DOFs); one held "
-                "by its contacts alone is not taken yet"
-            )
     u = {
         b.name: np.asarray((start or {}).get(b.name, np.zeros(b.mesh.n_dofs)), float).ravel()
         for b in finite

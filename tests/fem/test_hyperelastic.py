@@ -174,3 +174,19 @@ def test_prescribed_values_follow_their_dofs_in_any_order():
     v = np.concatenate([np.full(top.size, -0.1), np.zeros(3 * bottom.size)])
     sol = solve_finite_strain(mesh, fem.LinearElastic(E, 0.3), prescribed=k, values=v)
     assert np.allclose(sol.u[top, 2], -0.1) and np.allclose(sol.u[bottom], 0.0)
+
+
+def test_the_material_tangent_holds_exactly_the_rigid_modes_of_the_placement(mesh):
+    # what a free body's solver needs: positive semidefinite, null on its six rigid modes
+    mat = fem.LinearElastic(E, 0.45)
+    rng = np.random.default_rng(5)
+    x = mesh.points
+    u = 0.01 * rng.standard_normal(mesh.n_dofs) + (0.3 * x * [1.0, -0.2, 0.5]).ravel()
+    k = finite_strain(mesh, mat, u, tangent="material").stiffness.toarray()
+    modes = fem.rigid_body_modes(x + u.reshape(-1, 3))
+    assert np.abs(k @ modes).max() <= 1e-14 * np.abs(k).max()
+    w = np.linalg.eigvalsh(k)
+    assert w[:6].min() >= -1e-14 * w.max() and w[6] > 1e-6 * w.max()
+    # the full tangent does not: a stressed body's turn moves its forces
+    full = finite_strain(mesh, mat, u).stiffness.toarray()
+    assert np.abs(full @ modes).max() > 1e-3 * np.abs(full).max()

@@ -3,6 +3,7 @@ problem solved by finite-strain Newton with the contact written as prescribed va
 
 import numpy as np
 import pytest
+from scipy.optimize import brentq
 
 import fem
 from contact.errors import ContactError
@@ -64,12 +65,58 @@ def test_at_small_strain_it_is_the_linear_frame():
     assert np.abs(out.displacement["block"] - u).max() <= 1e-5 * np.abs(u).max()
 
 
+@pytest.mark.parametrize("kind", ["hexahedron", "tetra"])
+def test_a_free_block_between_frictionless_plates_to_30_percent_is_exact(kind):
+    # nothing but the plates holds it: uniaxial stress, about its centroid sideways
+    mesh = fem.box_mesh((H, H, H), (3, 3, 3))
+    if kind == "tetra":
+        mesh = fem.hex_to_tet(mesh)
+    lam, mu = MAT.lame
+    body = FiniteBody("block", mesh, MAT)
+    start = None
+    x = mesh.points
+    c = x.mean(axis=0)
+    for press in (0.1, 0.2, 0.3):
+        table = Plane((0, 0, 0), (0, 0, 1), name="table")
+        plate = _plate(press)
+        out = solve_finite_frame(
+            [body], [ContactPair(body, table), ContactPair(body, plate)], [table, plate],
+            start=start,
+        )  # fmt: skip
+        assert out.converged and out.steps <= 6, out.stop_reason
+        start = {"block": out.displacement["block"]}
+        axial = 1 - press
+        side = brentq(lambda s, a=axial: mu * (s - 1 / s) + lam * np.log(s * s * a) / s,
+                      0.5, 2.0, xtol=1e-15)
+        exact = np.column_stack([(x[:, :2] - c[:2]) * (side - 1), x[:, 2] * (axial - 1)])
+        assert np.abs(out.displacement["block"] - exact).max() <= 1e-10 * H
+        p33 = mu * (axial - 1 / axial) + lam * np.log(side * side * axial) / axial
+        assert out.result.obstacle_forces["plate"][2] == pytest.approx(-p33 * H * H, rel=1e-8)
+
+
 def test_what_it_does_not_take_yet_is_refused():
     mesh, base = _bonded("hexahedron")
     plate = _plate(0.05)
-    free = FiniteBody("block", mesh, MAT)
-    with pytest.raises(ContactError, match="needs supports"):
-        solve_finite_frame([free], [ContactPair(free, plate)], [plate])
     held = FiniteBody("block", mesh, MAT, prescribed=base)
     with pytest.raises(ContactError, match="frictionless"):
         solve_finite_frame([held], [ContactPair(held, plate, friction=0.3)], [plate])
+
+
+def test_a_free_ball_pressed_to_a_fifth_of_its_radius():
+    r = 0.02
+    mesh = fem.ball_mesh(r, r / 5)
+    body = FiniteBody("ball", mesh, MAT)
+    start = None
+    for d in (0.05, 0.1, 0.2):
+        table = Plane((0, 0, -r), (0, 0, 1), motion=(0, 0, d * r / 2), name="table")
+        plate = Plane((0, 0, r), (0, 0, -1), motion=(0, 0, -d * r / 2), name="plate")
+        out = solve_finite_frame(
+            [body], [ContactPair(body, table), ContactPair(body, plate)], [table, plate],
+            start=start,
+        )  # fmt: skip
+        # a free body's steps take the material tangent: Newton's own rate is not reached
+        assert out.converged and out.steps <= 12, out.stop_reason
+        start = {"ball": out.displacement["ball"]}
+        f = out.result.obstacle_forces
+        assert f["table"] == pytest.approx(-f["plate"], rel=1e-8, abs=1e-10 * abs(f["plate"][2]))
+    assert out.result.max_penetration <= 0.01 * r
