@@ -13,14 +13,14 @@ turn a cell inside out. Newton stops where the step is round-off of the body's s
 the forces out of balance, contact forces included, round-off of its loads.
 
 Linear bodies may take part: each linearisation solves them whole, as a frame does.
-What this does not take yet: friction, force-driven planes, and a finite body held by
-its contacts alone. Such a body's tangent is not positive definite (a compressed body's
-turn lowers its energy until the contacts' rows hold it: the tangent on a statically
-determinate support of six DOFs has negative pivots from about 10 % strain), so its
-compliance needs the rigid modes taken out by projection and an indefinite
-factorisation; a finite body must have supports (a hand's flesh on its bones, a block
-on its base) and their prescribed displacements are zero (the bones where they were
-posed).
+
+A compressed body's full tangent is not positive definite on its own: a column fixed at
+its base sways, a free body's turn moves its forces. A supported body takes its full
+tangent plus springs along its last closed contacts' normals (:func:`_springs`), which
+change nothing of a step along those rows; a free body takes the material tangent
+(:func:`fem.finite_strain` with ``tangent="material"``), whose null space is exactly its
+rigid modes, so that the free-body solver places it as it does a linear one: a modified
+Newton, more steps than Newton's. Not taken yet: friction and force-driven planes.
 """
 
 from __future__ import annotations
