@@ -21,6 +21,10 @@ __all__ = ["ElasticBody"]
 class ElasticBody:
     """A linear elastic body whose stiffness is assembled once and factored once.
 
+    ``turns_freely`` (False): the body is a finite-strain body's linearisation
+    (:mod:`contact.solver.finite`), whose turn Newton's method carries past the
+    small-rotation bound of a linear body.
+
     Parameters
     ----------
     name : str
@@ -60,6 +64,8 @@ class ElasticBody:
         A stiffness to use instead of assembling the linear one (a finite-strain body's
         tangent at its current placement, :mod:`contact.solver.finite`).
     """
+
+    turns_freely: bool = False
 
     def __init__(
         self,

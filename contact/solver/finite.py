@@ -37,6 +37,7 @@ from fem.follower import follower_pressure
 
 from ..errors import ContactError
 from ..geometry.plane import Plane
+from .anchors import Anchors
 from .body import ElasticBody
 from .iteration import solve_frame
 from .pairs import ContactPair
@@ -101,11 +102,13 @@ class FiniteBody:
             k = (k + springs).tocsr()
         placed = fem.Mesh(self.mesh.points + u.reshape(-1, 3), self.mesh.cells,
                           self.mesh.regions)
-        return ElasticBody(
+        body = ElasticBody(
             self.name, placed, self.materials, prescribed=self.prescribed,
             loads=f_ext - state.force, contact_faces=self.contact_faces,
             supports=self.supports, stiffness=k,
         )  # fmt: skip
+        body.turns_freely = True
+        return body
 
 
 @dataclass(frozen=True)
@@ -145,6 +148,7 @@ def solve_finite_frame(
     *,
     start: Mapping[str, ArrayLike] | None = None,
     max_steps: int = MAX_NEWTON,
+    anchors: Anchors | None = None,
 ) -> FiniteFrame:
     """Resolve one frame's contacts with finite-strain bodies by Newton's method.
 
@@ -164,10 +168,8 @@ def solve_finite_frame(
     ContactError
         Friction, a force-driven plane or a free finite body (not taken yet).
     """
-    if any(p.friction for p in pairs) or any(pl.force is not None for pl in planes):
-        raise ContactError(
-            "finite-strain frames take frictionless pairs and planes at given motions only"
-        )
+    if any(pl.force is not None for pl in planes):
+        raise ContactError("finite-strain frames take planes at given motions only")
     finite = [b for b in bodies if isinstance(b, FiniteBody)]
     u = {
         b.name: np.asarray((start or {}).get(b.name, np.zeros(b.mesh.n_dofs)), float).ravel()
@@ -185,7 +187,7 @@ def solve_finite_frame(
             for p in pairs
         ]  # fmt: skip
         try:
-            res = solve_frame(now, paired, planes, settings)
+            res = solve_frame(now, paired, planes, settings, anchors=anchors)
         except fem.SolverError as exc:
             stop = f"a finite body's tangent could not be factored at this strain: {exc}"
             break

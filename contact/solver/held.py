@@ -242,7 +242,7 @@ def turned(bodies: Sequence[ElasticBody], states: Mapping[str, BodyState]) -> st
     worst = (0.0, "")
     for b in bodies:
         rigid = states[b.name].rigid
-        if not (b.solver.free_body and rigid.size):
+        if not (b.solver.free_body and rigid.size) or b.turns_freely:
             continue
         _, omega = fem.rigid_part(b.mesh.points, b.solver.modes @ rigid)
         angle = float(np.linalg.norm(omega))

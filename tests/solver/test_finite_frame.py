@@ -98,8 +98,10 @@ def test_what_it_does_not_take_yet_is_refused():
     mesh, base = _bonded("hexahedron")
     plate = _plate(0.05)
     held = FiniteBody("block", mesh, MAT, prescribed=base)
-    with pytest.raises(ContactError, match="frictionless"):
-        solve_finite_frame([held], [ContactPair(held, plate, friction=0.3)], [plate])
+    driven = Plane((0, 0, H), (0, 0, -1), force=1.0, name="plate")
+    with pytest.raises(ContactError, match="given motions"):
+        solve_finite_frame([held], [ContactPair(held, driven)], [driven])
+    assert plate.force is None
 
 
 def test_a_free_ball_pressed_to_a_fifth_of_its_radius():
@@ -120,3 +122,30 @@ def test_a_free_ball_pressed_to_a_fifth_of_its_radius():
         f = out.result.obstacle_forces
         assert f["table"] == pytest.approx(-f["plate"], rel=1e-8, abs=1e-10 * abs(f["plate"][2]))
     assert out.result.max_penetration <= 0.01 * r
+
+
+def test_a_free_ball_rolled_45_degrees_between_a_table_and_a_moving_plate():
+    # mu 1: the plate carries the ball's top along, the table holds its bottom: it rolls
+    # s / 2r, r its centre's height over the table (R less half the squeeze)
+    r = 0.02
+    press = 0.05 * r
+    mesh = fem.ball_mesh(r, r / 5)
+    body = FiniteBody("ball", mesh, MAT)
+    start, anchors = None, None
+    travel = 2 * r * np.pi / 4
+    for s in np.linspace(0.0, travel, 6):
+        table = Plane((0, 0, -r), (0, 0, 1), name="table")
+        plate = Plane((0, 0, r), (0, 0, -1), motion=(s, 0, -press), name="plate")
+        pairs = [ContactPair(body, table, friction=1.0), ContactPair(body, plate, friction=1.0)]
+        out = solve_finite_frame([body], pairs, [table, plate], start=start, anchors=anchors)
+        assert out.converged and out.result.held and out.steps <= 8, out.stop_reason
+        start, anchors = {"ball": out.displacement["ball"]}, out.result.anchors
+    # the turn of the ball's nodes (Kabsch), about y
+    x0 = mesh.points - mesh.points.mean(axis=0)
+    x1 = mesh.points + out.displacement["ball"]
+    u, _, vt = np.linalg.svd((x1 - x1.mean(axis=0)).T @ x0)
+    turn = u @ vt
+    angle = np.degrees(np.arctan2(turn[0, 2], turn[0, 0]))
+    centre = r - press / 2
+    assert angle == pytest.approx(np.degrees(travel / (2 * centre)), rel=0.02)
+    assert abs(turn[1, 1] - 1) <= 1e-6  # about y only
