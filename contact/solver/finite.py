@@ -20,7 +20,8 @@ tangent plus springs along its last closed contacts' normals (:func:`_springs`),
 change nothing of a step along those rows; a free body takes the material tangent
 (:func:`fem.finite_strain` with ``tangent="material"``), whose null space is exactly its
 rigid modes, so that the free-body solver places it as it does a linear one: a modified
-Newton, more steps than Newton's. Not taken yet: friction and force-driven planes.
+Newton, more steps than Newton's. Friction's slip is measured from the previous frame's
+anchors in every step, and force-driven planes are placed by every step's solve.
 """
 
 from __future__ import annotations
@@ -162,14 +163,15 @@ def solve_finite_frame(
     start : mapping of str to array_like, optional
         Finite bodies' displacements to start from (the last frame's), zero otherwise.
     max_steps : int
+    anchors : Anchors, optional
+        The previous frame's stick anchors (its ``result.anchors``), for friction.
 
     Raises
     ------
     ContactError
-        Friction, a force-driven plane or a free finite body (not taken yet).
+        Where the first linearisation's tangent cannot be factored (a body that is not
+        stable at its starting placement).
     """
-    if any(pl.force is not None for pl in planes):
-        raise ContactError("finite-strain frames take planes at given motions only")
     finite = [b for b in bodies if isinstance(b, FiniteBody)]
     u = {
         b.name: np.asarray((start or {}).get(b.name, np.zeros(b.mesh.n_dofs)), float).ravel()
@@ -210,7 +212,7 @@ def solve_finite_frame(
         raise ContactError(stop)
     if stop == "iteration limit":
         stop = f"Newton did not converge in {max_steps} steps (residual {residual:.2g})"
-    return FiniteFrame(res, _all(bodies, u, res), max_steps, False, stop, residual)
+    return FiniteFrame(res, _all(bodies, u, res), step, False, stop, residual)
 
 
 def _springs(body: FiniteBody, res: FrameResult, lin: ElasticBody) -> sp.csr_matrix:

@@ -6,7 +6,6 @@ import pytest
 from scipy.optimize import brentq
 
 import fem
-from contact.errors import ContactError
 from contact.geometry.plane import Plane
 from contact.solver import ContactSettings, solve_frame
 from contact.solver.body import ElasticBody
@@ -94,16 +93,6 @@ def test_a_free_block_between_frictionless_plates_to_30_percent_is_exact(kind):
         assert out.result.obstacle_forces["plate"][2] == pytest.approx(-p33 * H * H, rel=1e-8)
 
 
-def test_what_it_does_not_take_yet_is_refused():
-    mesh, base = _bonded("hexahedron")
-    plate = _plate(0.05)
-    held = FiniteBody("block", mesh, MAT, prescribed=base)
-    driven = Plane((0, 0, H), (0, 0, -1), force=1.0, name="plate")
-    with pytest.raises(ContactError, match="given motions"):
-        solve_finite_frame([held], [ContactPair(held, driven)], [driven])
-    assert plate.force is None
-
-
 def test_a_free_ball_pressed_to_a_fifth_of_its_radius():
     r = 0.02
     mesh = fem.ball_mesh(r, r / 5)
@@ -149,3 +138,28 @@ def test_a_free_ball_rolled_45_degrees_between_a_table_and_a_moving_plate():
     centre = r - press / 2
     assert angle == pytest.approx(np.degrees(travel / (2 * centre)), rel=0.02)
     assert abs(turn[1, 1] - 1) <= 1e-6  # about y only
+
+
+@pytest.mark.parametrize("factor", [0.9, 1.1])
+def test_force_driven_pads_hold_a_finite_ball_up_to_twice_mu_p(factor):
+    # two pads pressing 3 N each squeeze a soft ball by about an eighth of its radius
+    r, mu, p = 0.02, 0.5, 3.0
+    mesh = fem.ball_mesh(r, r / 5)
+    mat = fem.LinearElastic(1.0e5, NU, 1000.0)
+    g = fem.gravity_load(mesh, mat, (0, 0, -9.81))
+    weight = factor * 2 * mu * p
+    body = FiniteBody("ball", mesh, mat, loads=g / -g[2::3].sum() * weight)
+    left = Plane((-r, 0, 0), (1, 0, 0), force=p, name="left")
+    right = Plane((r, 0, 0), (-1, 0, 0), force=p, name="right")
+    pairs = [ContactPair(body, left, friction=mu), ContactPair(body, right, friction=mu)]
+    out = solve_finite_frame([body], pairs, [left, right])
+    res = out.result
+    if factor < 1:
+        assert out.converged and res.held and out.steps <= 15, out.stop_reason
+        for pad in ("left", "right"):
+            assert abs(res.obstacle_forces[pad][0]) == pytest.approx(p, rel=1e-8)
+            assert res.obstacle_forces[pad][2] == pytest.approx(-weight / 2, rel=1e-8)
+    else:
+        assert not out.converged and res.held is False
+        assert res.stop_reason.startswith("not held: ball slips along (0.000, 0.000, -1.000)")
+        assert res.slip["not_carried"] == pytest.approx(weight - 2 * mu * p, rel=0.01)
