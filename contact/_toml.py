@@ -15,7 +15,9 @@ The scene reader (:mod:`contact.scene.read`) and the rig reader
 from __future__ import annotations
 
 import difflib
+import errno
 import math
+import os
 import sys
 from collections.abc import Iterable
 from pathlib import Path
@@ -192,7 +194,14 @@ class TomlReader:
     def file(self, value: Any, path: str, base: Path) -> Path:
         """An existing readable file; a relative path is taken from ``base``."""
         name = self.string(value, path)
-        full = (base / Path(name).expanduser()).resolve()
+        try:
+            full = (base / Path(name).expanduser()).resolve()
+            os.stat(full)  # a symlink loop: ELOOP here, or RuntimeError above
+        except RuntimeError:
+            raise self.fail(path, value, "a symlink loop") from None
+        except OSError as exc:
+            if exc.errno == errno.ELOOP:
+                raise self.fail(path, value, "a symlink loop") from None
         if not full.exists():
             raise self.fail(path, value, f"no such file ({full})")
         if not full.is_file():
