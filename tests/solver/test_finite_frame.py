@@ -163,3 +163,23 @@ def test_force_driven_pads_hold_a_finite_ball_up_to_twice_mu_p(factor):
         assert not out.converged and res.held is False
         assert res.stop_reason.startswith("not held: ball slips along (0.000, 0.000, -1.000)")
         assert res.slip["not_carried"] == pytest.approx(weight - 2 * mu * p, rel=0.01)
+
+
+def test_at_a_small_load_a_free_ball_between_plates_is_the_linear_one():
+    # Hertz's regime: the finite model's force and displacements are the linear model's
+    r, d = 0.02, 1e-3
+    mesh = fem.ball_mesh(r, r / 6)  # a node at each pole
+    planes = [
+        Plane((0, 0, -r), (0, 0, 1), motion=(0, 0, d * r), name="table"),
+        Plane((0, 0, r), (0, 0, -1), motion=(0, 0, -d * r), name="plate"),
+    ]
+    fin = FiniteBody("ball", mesh, MAT)
+    out = solve_finite_frame([fin], [ContactPair(fin, pl) for pl in planes], planes)
+    lin = ElasticBody("ball", mesh, MAT)
+    ref = solve_frame([lin], [ContactPair(lin, pl) for pl in planes], planes)
+    assert out.converged and ref.converged
+    f, f_lin = out.result.obstacle_forces["plate"][2], ref.obstacle_forces["plate"][2]
+    # they part as the squeeze's own size, d / R = 1e-3
+    assert f == pytest.approx(f_lin, rel=1e-3)
+    u, u_lin = out.displacement["ball"], ref.displacement["ball"]
+    assert np.abs(u - u_lin).max() <= 1e-3 * np.abs(u_lin).max()
