@@ -27,7 +27,7 @@ from ..errors import ObjectError
 from ..geometry import enclosed_volume
 from ..geometry.triangles import surface_of_mesh
 from ..scene import sizing
-from .cache import cached
+from .cache import FILL_TOLERANCE, cached
 from .surface import check_object_surface
 
 __all__ = ["mesh_object", "read_surface"]
@@ -202,4 +202,6 @@ def mesh_object(
         except fem.MeshError as exc:
             raise ObjectError(f"{prefix}cannot be filled with tetrahedra: {exc}") from None
 
-    return cached(path, f"size={mesh_size!r} options={sorted(tetwild_options.items())!r}", fill)
+    settings = f"size={mesh_size!r} options={sorted(tetwild_options.items())!r}"
+    epsilon = float(tetwild_options.get("epsilon", 1e-3))
+    return cached(path, settings, fill, (points, tri), tolerance=max(FILL_TOLERANCE, 5 * epsilon))
