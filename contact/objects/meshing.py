@@ -104,24 +104,46 @@ def _read_volume(path: Path, prefix: str) -> tuple[fem.Mesh | None, str | None]:
         raise ObjectError(f"{prefix}{text}") from None
 
 
-def _check_fill(points: NDArray, tri: NDArray, mesh_size: float | None, prefix: str) -> None:
-    """Refuse a fill too big for the machine, from the enclosed volume, before fTetWild runs."""
+def _check_fill(
+    points: NDArray, tri: NDArray, mesh_size: float | None, prefix: str, envelope: float
+) -> None:
+    """Refuse a fill too big for the machine, from the surface's shape, before fTetWild runs.
+
+    The body is estimated from the target edge (:func:`contact.scene.sizing.fill_size`); a
+    surface of far more triangles than that edge needs is better simplified first: said
+    with a warning, or in the refusal when fTetWild's memory for them is what does not fit.
+    """
+    x = points[tri]
     if mesh_size is None:
-        x = points[tri]
         mesh_size = float(np.linalg.norm(x - np.roll(x, 1, axis=1), axis=2).mean())
+    area = 0.5 * float(np.linalg.norm(np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), axis=1).sum())
+    diagonal = float(np.linalg.norm(np.ptp(points, axis=0)))
     volume = abs(enclosed_volume(points, tri))
-    nodes = sizing.TET_ELEMENTS_PER_H3 * volume / mesh_size**3 / sizing.TETS_PER_NODE
-    nodes += len(points)
-    memory = sizing.BASE_BYTES + sizing.body_memory(3.0 * nodes)
+    size = sizing.fill_size(volume, area, diagonal, len(tri), mesh_size, envelope)
+    n = len(tri)
+    simplify = (
+        f"simplify it to about {size.triangles:.3g} triangles first (a mesh_size of "
+        f"{mesh_size:g} m keeps no more), e.g. pyvista.read(path).decimate("
+        f"{1.0 - size.triangles / n:.3g}).save(new_path)"
+    )
     avail = sizing.available_memory()
-    if avail is not None and memory > avail:
+    if avail is not None and size.memory > avail:
+        has = f"and the machine has {sizing.format_bytes(avail)} available"
+        if size.fill_memory > sizing.body_memory(3.0 * size.nodes):
+            raise ObjectError(
+                f"{prefix}{n} triangles, too many to fill: fTetWild needs about "
+                f"{sizing.format_bytes(size.memory)} of memory for them, {has}: {simplify}"
+            )
         raise ObjectError(
-            f"{prefix}too fine at mesh_size {mesh_size:g} m: about {nodes:.3g} nodes, "
-            f"{sizing.format_bytes(memory)} of memory, and the machine has "
-            f"{sizing.format_bytes(avail)} available: give a larger mesh_size"
+            f"{prefix}too fine at mesh_size {mesh_size:g} m: about {size.nodes:.3g} nodes, "
+            f"{sizing.format_bytes(size.memory)} of memory, {has}: give a larger mesh_size"
         )
-    if 3.0 * nodes > sizing.WARN_DOFS:
-        log.warning("%sabout %.3g nodes at mesh_size %g m: a big object", prefix, nodes, mesh_size)
+    if n > sizing.LARGE_SURFACE and n > size.triangles:
+        log.warning("%s%d triangles: fTetWild takes minutes on them; %s", prefix, n, simplify)
+    if 3.0 * size.nodes > sizing.WARN_DOFS:
+        log.warning(
+            "%sabout %.3g nodes at mesh_size %g m: a big object", prefix, size.nodes, mesh_size
+        )
 
 
 def mesh_object(
@@ -194,7 +216,8 @@ def mesh_object(
         len(tri),
         "its mean edge length" if mesh_size is None else f"{mesh_size:g} m",
     )
-    _check_fill(points, tri, mesh_size, prefix)
+    epsilon = float(tetwild_options.get("epsilon", sizing.ENVELOPE))
+    _check_fill(points, tri, mesh_size, prefix, epsilon)
 
     def fill() -> fem.Mesh:
         try:
@@ -203,5 +226,4 @@ def mesh_object(
             raise ObjectError(f"{prefix}cannot be filled with tetrahedra: {exc}") from None
 
     settings = f"size={mesh_size!r} options={sorted(tetwild_options.items())!r}"
-    epsilon = float(tetwild_options.get("epsilon", 1e-3))
     return cached(path, settings, fill, (points, tri), tolerance=max(FILL_TOLERANCE, 5 * epsilon))

@@ -10,6 +10,11 @@ count moves in steps with the edge length: about 0.5 to 1 times the bound); the 
 fixed by its resolution. The memory is a per-DOF figure for assembly and sparse
 factorisation, grown with the cube root of the DOFs above a reference size (the fill of
 a nested-dissection factorisation of a 3-D mesh grows faster than the DOFs).
+
+An object's fill (:func:`fill_size`) is estimated from its target edge, not from the
+surface it is given: fTetWild remeshes the surface within its envelope, so that a scan of
+millions of triangles fills to as few tetrahedra as a smooth surface of the same shape.
+What the input costs is fTetWild's own memory and time, a figure per input triangle.
 """
 
 from __future__ import annotations
@@ -26,18 +31,24 @@ __all__ = [
     "BASE_BYTES",
     "BYTES_PER_DOF",
     "BYTES_PER_FRAME",
+    "ENVELOPE",
+    "FILL_BYTES_PER_TRIANGLE",
     "HAND_SIZE",
+    "LARGE_SURFACE",
     "MAX_FRAMES",
     "REFERENCE_DOFS",
+    "SURFACE_NODES_PER_H2",
     "TETS_PER_NODE",
     "TET_ELEMENTS_PER_H3",
     "WARN_DOFS",
     "WARN_FRAMES",
+    "FillSize",
     "SceneSize",
     "available_memory",
     "ball_size",
     "body_memory",
     "estimate",
+    "fill_size",
     "format_bytes",
 ]
 
@@ -48,6 +59,16 @@ log = logging.getLogger(__name__)
 TET_ELEMENTS_PER_H3 = 16.0
 #: Tetrahedra per interior node of a tetrahedral mesh.
 TETS_PER_NODE = 6.0
+#: Upper bound of fTetWild's surface nodes per ``area / edge**2`` (a regular triangulation
+#: has 1.15; unoptimised fills of spheres reach 16).
+SURFACE_NODES_PER_H2 = 16.0
+#: fTetWild's default envelope: how far (a fraction of the bounding-box diagonal) its
+#: surface may lie from the input; it bounds the surface edge on curved parts.
+ENVELOPE = 1e-3
+#: fTetWild's peak memory (bytes) per input triangle, about four times the measured.
+FILL_BYTES_PER_TRIANGLE = 2.0e3
+#: Input triangles above which a fill takes minutes: better simplified first.
+LARGE_SURFACE = 200_000
 #: Nodes and elements of the shipped hand's flesh per resolution.
 HAND_SIZE = {"coarse": (4419, 15355), "fine": (21041, 90177)}
 #: Peak memory (bytes) per DOF of a body's assembly and factorisation up to
@@ -184,6 +205,66 @@ def estimate(ball: BallSpec | None, hand_resolution: str | None, frames: int) ->
         memory_ball = body_memory(3.0 * nodes)
     memory = BASE_BYTES + memory_ball + body_memory(3.0 * hn) + BYTES_PER_FRAME * frames
     return SceneSize(int(min(nodes, 1e18)), int(min(elements, 1e18)), hn, he, frames, memory)
+
+
+@dataclass(frozen=True)
+class FillSize:
+    """What an object's fill will build, estimated from its surface's shape and the edge.
+
+    Attributes
+    ----------
+    nodes : float
+        Nodes of the tetrahedra (an upper bound).
+    memory : float
+        Peak memory (bytes) of the fill and of the body it makes, conservative.
+    fill_memory : float
+        fTetWild's part of it, set by the input's triangles.
+    triangles : float
+        Triangles the surface needs at this edge: what a simplified input may keep.
+    """
+
+    nodes: float
+    memory: float
+    fill_memory: float
+    triangles: float
+
+
+def fill_size(
+    volume: float,
+    area: float,
+    diagonal: float,
+    n_triangles: int,
+    mesh_size: float,
+    envelope: float = ENVELOPE,
+) -> FillSize:
+    """The size of fTetWild's fill of a closed surface at the target edge ``mesh_size``.
+
+    Parameters
+    ----------
+    volume, area : float
+        The surface's enclosed volume (m^3) and area (m^2).
+    diagonal : float
+        Its bounding box's diagonal (m).
+    n_triangles : int
+        The input's triangles (fTetWild's own memory).
+    mesh_size : float
+        Target tetrahedron edge (m).
+    envelope : float
+        fTetWild's ``epsilon``: the surface edge on curved parts is at most about
+        ``diagonal * sqrt(2 envelope)`` (a chord within the envelope of a curvature
+        radius a quarter of the diagonal), whatever the target.
+
+    Returns
+    -------
+    FillSize
+    """
+    h = max(float(mesh_size), 1e-6 * diagonal)
+    edge = min(h, diagonal * math.sqrt(2.0 * envelope))
+    nodes = TET_ELEMENTS_PER_H3 * volume / h**3 / TETS_PER_NODE
+    nodes += SURFACE_NODES_PER_H2 * area / edge**2
+    fill = FILL_BYTES_PER_TRIANGLE * n_triangles
+    memory = BASE_BYTES + max(fill, body_memory(3.0 * nodes))  # fTetWild's freed before
+    return FillSize(nodes, memory, fill, 4.0 * area / (0.433 * edge**2))
 
 
 def available_memory() -> float | None:
