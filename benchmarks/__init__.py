@@ -25,6 +25,7 @@ BENCHMARKS = (
     "patch",
     "friction",
     "holding",
+    "finite",
     "sweep",
     "posing",
     "sfepy_hertz",

@@ -50,8 +50,8 @@ __all__ = [
 
 
 def neo_hookean(
-    h: NDArray[np.float64], lam: ArrayLike, mu: ArrayLike
-) -> tuple[NDArray, NDArray, NDArray]:
+    h: NDArray[np.float64], lam: ArrayLike, mu: ArrayLike, *, tangent: bool = True
+) -> tuple[NDArray, NDArray, NDArray | None]:
     """Energy density, first Piola-Kirchhoff stress and its derivative at ``F = I + H``.
 
     Written in the displacement gradient ``H`` so that a small strain keeps its digits:
@@ -64,6 +64,8 @@ def neo_hookean(
         Displacement gradients ``H = grad_X u``, ``det(I + H) > 0``.
     lam, mu : array_like, broadcastable to ``h.shape[:-2]``
         Lame parameters (Pa).
+    tangent : bool
+        Compute ``a`` too (None otherwise).
 
     Returns
     -------
@@ -86,6 +88,8 @@ def neo_hookean(
     w = mu / 2 * i1m3 - mu * ln + lam / 2 * ln**2
     f_less_fit = h + np.swapaxes(fi @ h, -1, -2)
     p = mu[..., None, None] * f_less_fit + (lam * ln)[..., None, None] * fit
+    if not tangent:
+        return w, p, None
     eye = np.eye(3)
     a = mu[..., None, None, None, None] * np.einsum("ik,jl->ijkl", eye, eye)
     cross = (mu - lam * ln)[..., None, None, None, None]
@@ -120,18 +124,48 @@ class FiniteStrain:
     stiffness: sp.csr_matrix
 
 
-def _volume_terms(g: NDArray, wdet: NDArray, j: NDArray, fi: NDArray) -> tuple[NDArray, NDArray]:
+def _law_blocks(
+    g: NDArray, wdet: NDArray, fi: NDArray, p: NDArray, jm1: NDArray,
+    lam: NDArray, mu: NDArray, material: bool,
+) -> NDArray:
+    """The law's tangent as node-pair blocks ``(M, n, n, 3, 3)``: ``int G_a A G_b``.
+
+    With ``A_ijkl = mu d_ik d_jl + (mu - lam ln J) Fi_li Fi_jk + lam Fi_ji Fi_lk``
+    (:func:`neo_hookean`) and ``h_a = F^-T G_a``, the block is ``mu (G_a . G_b) d_ik +
+    (mu - lam ln J) h_b,i h_a,k + lam h_a,i h_b,k``, and ``material`` takes off the
+    initial stress ``(G_a . S G_b) d_ik``, ``S = F^-1 P``.
+    """
+    ln = np.log1p(jm1)
+    h = np.einsum("eqji,eqaj->eqai", fi, g)
+    c1 = wdet * (mu[:, None] - lam[:, None] * ln)
+    c2 = wdet * lam[:, None]
+    out = np.einsum("eq,eqbi,eqak->eabik", c1, h, h, optimize=True)
+    out += np.einsum("eq,eqai,eqbk->eabik", c2, h, h, optimize=True)
+    gg = np.einsum("eq,eqaj,eqbj->eab", wdet * mu[:, None], g, g, optimize=True)
+    if material:
+        sg = np.einsum("eqjl,eqbl->eqbj", fi @ p, g)
+        gg -= np.einsum("eq,eqaj,eqbj->eab", wdet, g, sg, optimize=True)
+    for i in range(3):
+        out[..., i, i] += gg
+    return out
+
+
+def _volume_terms(
+    g: NDArray, wdet: NDArray, j: NDArray, fi: NDArray, hessian: bool
+) -> tuple[NDArray, NDArray | None]:
     """Gradient ``(M, n, 3)`` and Hessian ``(M, n, n, 3, 3)`` of each element's volume.
 
     ``v = sum_q w_q det J0_q J_q``; ``dv / dx_ai = sum_q w det J0 J Fi_ji G_aj`` and
-    ``d^2 v / dx_ai dx_bk = sum_q w det J0 J (Fi_ji Fi_lk - Fi_li Fi_jk) G_aj G_bl``.
+    ``d^2 v / dx_ai dx_bk = sum_q w det J0 J (Fi_ji Fi_lk - Fi_li Fi_jk) G_aj G_bl``
+    (None unless ``hessian``).
     """
     wj = wdet * j
     fig = np.einsum("eqji,eqaj->eqai", fi, g)  # G_a . F^-1 per component i
     dv = np.einsum("eq,eqai->eai", wj, fig)
-    h = np.einsum("eq,eqai,eqbk->eabik", wj, fig, fig)
-    h -= np.einsum("eq,eqak,eqbi->eabik", wj, fig, fig)
-    return dv, h
+    if not hessian:
+        return dv, None
+    h = np.einsum("eq,eqai,eqbk->eabik", wj, fig, fig, optimize=True)
+    return dv, h - h.swapaxes(-1, -2)
 
 
 def finite_strain(
@@ -187,19 +221,17 @@ def finite_strain(
                 f"{float(j[bad].min()):.3g}): finite strain needs det F > 0"
             )
         fi = inv3(np.eye(3) + hg, j)
-        w, p, a = neo_hookean(hg, (lam - kappa)[:, None], mu[:, None])
-        if tangent == "material":  # A less d_ik S_jl, S = F^-1 P
-            a = a - np.einsum("ik,eqjl->eqijkl", np.eye(3), fi @ p)
+        w, p, _ = neo_hookean(hg, (lam - kappa)[:, None], mu[:, None], tangent=False)
         energy += float((w * wdet).sum())
         np.add.at(force, conn, np.einsum("eq,eqij,eqaj->eai", wdet, p, g))
         vol0 = wdet.sum(axis=1)
-        dv, h = _volume_terms(g, wdet, j, fi)
+        dv, h = _volume_terms(g, wdet, j, fi, stiffness and tangent != "material")
         dvol = (wdet * jm1).sum(axis=1)  # v - V, kept apart from V for its digits
         dofs = element_dofs(conn)
         if kind == "tetra":
             # nodal groups: each node takes a quarter of its tetrahedra's volumes
             tet_share = (conn, dv, h, dvol, vol0, kappa, dofs)
-            kb = np.zeros(h.shape)
+            kb = 0.0
         else:
             # the element is its own group: the mean dilatation
             m = len(conn)
@@ -210,11 +242,11 @@ def finite_strain(
             group_vol.append(vol0)
             group_kv.append(kappa * vol0)
             n_groups += m
-            kb = _group_slope(dvol, vol0, kappa)[:, None, None, None, None] * h
-            if tangent == "material":
-                kb = np.zeros(h.shape)
+            kb = 0.0
+            if h is not None:
+                kb = _group_slope(dvol, vol0, kappa)[:, None, None, None, None] * h
         if stiffness:
-            kb = kb + np.einsum("eq,eqaj,eqijkl,eqbl->eabik", wdet, g, a, g, optimize=True)
+            kb = kb + _law_blocks(g, wdet, fi, p, jm1, lam - kappa, mu, tangent == "material")
             ke = kb.transpose(0, 1, 3, 2, 4).reshape(len(conn), dofs.shape[1], dofs.shape[1])
             rows.append(np.repeat(dofs, dofs.shape[1], axis=1).ravel())
             cols.append(np.tile(dofs, dofs.shape[1]).ravel())
@@ -236,11 +268,11 @@ def finite_strain(
         group_vol.append(vol_n[on])
         group_kv.append(kv_n[on])
         n_groups += int(on.sum())
-        if stiffness:
+        if h is not None:
             slope = _group_slope(vn[on], vol_n[on], kv_n[on] / vol_n[on])
             node_slope = np.zeros(n)
             node_slope[on] = slope
-            ce = node_slope[conn].sum(axis=1) / 4.0 * (tangent != "material")
+            ce = node_slope[conn].sum(axis=1) / 4.0
             ke = (ce[:, None, None, None, None] * h).transpose(0, 1, 3, 2, 4).reshape(m, 12, 12)
             rows.append(np.repeat(dofs, 12, axis=1).ravel())
             cols.append(np.tile(dofs, 12).ravel())
@@ -297,7 +329,7 @@ def cauchy_stress(
         lam, mu = fields[kind]
         kappa = lam + 2.0 * mu / 3.0
         _, wdet, hg, jm1 = _kinematics(mesh, kind, ua)
-        _, p, _ = neo_hookean(hg, (lam - kappa)[:, None], mu[:, None])
+        _, p, _ = neo_hookean(hg, (lam - kappa)[:, None], mu[:, None], tangent=False)
         sigma = np.einsum("eqij,eqkj->eqik", p, np.eye(3) + hg) / (1.0 + jm1)[..., None, None]
         vol0 = wdet.sum(axis=1)
         dvol = (wdet * jm1).sum(axis=1)

@@ -1,0 +1,21 @@
+"""The finite-strain benchmark's quick mode: files written and real numbers in them."""
+
+import csv
+
+import pytest
+
+from benchmarks import finite
+
+
+@pytest.mark.slow
+def test_quick_run_writes_its_table_and_goals(tmp_path):
+    rows = finite.run(quick=True, out=tmp_path)
+    table = list(csv.DictReader((tmp_path / "finite.csv").open()))
+    assert len(table) == len(rows) == len(finite.SIZES[True])
+    md = (tmp_path / "finite.md").read_text()
+    assert md.startswith("# Finite strain") and "| cpu |" in md
+    assert "| met |" in md or "| MISSED |" in md
+    for r in rows:
+        assert r["steps_max"] >= 2 and r["time_ratio"] > 0
+        # the finite squeeze is softer than the linear one at d/R 0.2 (the contact widens)
+        assert 0 < r["force_finite"] and 0 < r["force_linear"]
