@@ -15,6 +15,8 @@ import logging
 import math
 import os
 import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +30,7 @@ from ..geometry import enclosed_volume
 from ..geometry.triangles import surface_of_mesh
 from ..scene import sizing
 from .cache import FILL_TOLERANCE, cached
+from .formats import SURFACE_FORMATS, read_surface_file
 from .surface import check_object_surface
 
 __all__ = ["mesh_object", "read_surface"]
@@ -43,13 +46,30 @@ def _reword(exc: fem.MeshError, path: Path) -> str:
     return text
 
 
+@contextmanager
+def _vtk_silenced() -> Iterator[None]:
+    """VTK's own error and warning output kept off stderr (the reader's failure is told)."""
+    import pyvista as pv
+    import vtk
+
+    shown = vtk.vtkObject.GetGlobalWarningDisplay()
+    vtk.vtkObject.GlobalWarningDisplayOff()
+    try:
+        with pv.vtk_verbosity("off"):
+            yield
+    finally:
+        vtk.vtkObject.SetGlobalWarningDisplay(shown)
+
+
 def read_surface(
     path: str | os.PathLike, *, where: str = "object.mesh"
 ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-    """The triangles of a surface file pyvista (or meshio through it) reads, unchecked.
+    """The triangles of a surface file, unchecked: STL, OBJ or PLY read here, else by pyvista.
 
-    Polygons are split into triangles; lines and vertices are ignored; a volume file
-    gives its outer surface.
+    STL, OBJ and PLY files are read and checked by :mod:`contact.objects.formats`; other
+    formats go to pyvista (or meshio through it) with VTK's own output silenced. Polygons
+    are split into triangles; lines and vertices are ignored; a volume file gives its
+    outer surface.
 
     Raises
     ------
@@ -62,7 +82,9 @@ def read_surface(
     prefix = f"{where} = '{path}': "
     if not path.is_file():
         raise ObjectError(prefix + ("not a file" if path.exists() else "no such file"))
-    with warnings.catch_warnings(record=True) as said:
+    if path.suffix.lower() in SURFACE_FORMATS:
+        return read_surface_file(path, prefix)
+    with warnings.catch_warnings(record=True) as said, _vtk_silenced():
         warnings.simplefilter("always")  # a failing VTK reader only warns
         try:
             data: Any = pv.read(path)
@@ -193,7 +215,8 @@ def mesh_object(
         raise ObjectError(f"{where}_size = {mesh_size!r}: must be a positive length in metres")
     if not path.is_file():
         raise ObjectError(prefix + ("not a file" if path.exists() else "no such file"))
-    mesh, unread = _read_volume(path, prefix)
+    surface_file = path.suffix.lower() in SURFACE_FORMATS  # no volume cells: not meshio's
+    mesh, unread = (None, None) if surface_file else _read_volume(path, prefix)
     if mesh is not None:
         try:
             tri = surface_of_mesh(mesh)[1]

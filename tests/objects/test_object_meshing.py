@@ -81,7 +81,7 @@ def test_missing_unreadable_and_empty_files(tmp_path):
         mesh_object(tmp_path / "nope.stl", where="object[2].mesh")
     junk = tmp_path / "junk.stl"
     junk.write_bytes(b"\x00\x01 not a mesh")
-    with pytest.raises(ObjectError, match=r"junk\.stl': cannot be read") as info:
+    with pytest.raises(ObjectError, match=r"junk\.stl': not an STL file: 13 bytes") as info:
         mesh_object(junk)
     assert "\n" not in str(info.value)
     with pytest.raises(ObjectError, match="not a file"):

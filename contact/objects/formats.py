@@ -1,0 +1,292 @@
+"""Readers of the common surface files (STL, OBJ, PLY) that check the file as they read it.
+
+VTK's and meshio's readers of these formats take a malformed file badly: a truncated
+binary STL is decoded as text (``UnicodeDecodeError``), a negative OBJ index (legal: it
+counts back from the last vertex) fills stderr with VTK's errors, a truncated binary PLY
+crashes the interpreter and a PLY header without its end hangs meshio. These readers
+parse the three formats with numpy and say in one :class:`~contact.errors.ObjectError`
+line what is wrong with the file: a size that does not match the header, a face index
+that refers to no vertex, a header line that is not PLY's.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+from numpy.lib.recfunctions import structured_to_unstructured
+from numpy.typing import NDArray
+
+from ..errors import ObjectError
+
+__all__ = ["SURFACE_FORMATS", "read_surface_file"]
+
+#: The suffixes read here (any case); other files go to pyvista.
+SURFACE_FORMATS = (".stl", ".obj", ".ply")
+
+Surface = tuple[NDArray[np.float64], NDArray[np.int64]]
+
+#: PLY's scalar types as numpy's (without the byte order).
+_PLY_TYPES = {
+    "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1",
+    "short": "i2", "int16": "i2", "ushort": "u2", "uint16": "u2",
+    "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
+    "float": "f4", "float32": "f4", "double": "f8", "float64": "f8",
+}  # fmt: skip
+_STL_RECORD = np.dtype([("normal", "<f4", 3), ("corners", "<f4", (3, 3)), ("attr", "<u2")])
+_STL_VERTEX = re.compile(rb"^\s*vertex\s+(\S+)\s+(\S+)\s+(\S+)", re.M)
+
+
+def _fans(polygons: list[list[int]]) -> NDArray[np.int64]:
+    """Polygons split into triangles fanned from their first corner."""
+    tri = [(p[0], p[k], p[k + 1]) for p in polygons for k in range(1, len(p) - 1)]
+    return np.asarray(tri, np.int64).reshape(-1, 3)
+
+
+def _read_stl(data: bytes) -> Surface:
+    """A binary STL (its size told by its triangle count) or an ASCII one."""
+    if len(data) >= 84:
+        n = int(np.frombuffer(data, "<u4", 1, 80)[0])
+        if len(data) == 84 + 50 * n:
+            corners = np.frombuffer(data, _STL_RECORD, n, 84)["corners"]
+            return corners.reshape(-1, 3).astype(np.float64), np.arange(3 * n).reshape(-1, 3)
+    if not data.lstrip().startswith(b"solid"):
+        if len(data) < 84:
+            raise ObjectError(f"not an STL file: {len(data)} bytes, no binary header")
+        raise ObjectError(
+            f"a truncated or damaged binary STL: its header declares {n} triangles "
+            f"({84 + 50 * n} bytes), the file has {len(data)} bytes"
+        )
+    try:
+        text = data.decode("ascii")
+    except UnicodeDecodeError as exc:
+        size = "" if len(data) < 84 else f": {n} triangles, {84 + 50 * n} bytes"
+        raise ObjectError(
+            f"neither a binary STL (the file has {len(data)} bytes, its header declares "
+            f"{size.lstrip(': ') or 'none'}) nor ASCII text (byte {exc.start} is "
+            f"0x{data[exc.start]:02x}): truncated or damaged"
+        ) from None
+    found = _STL_VERTEX.findall(data)
+    if not re.search(r"^\s*endsolid", text, re.M):
+        raise ObjectError(f"a truncated ASCII STL: no 'endsolid' after {len(found)} vertices")
+    if len(found) % 3:
+        raise ObjectError(f"a damaged ASCII STL: {len(found)} vertices, not three a facet")
+    try:
+        points = np.array(found, dtype=np.float64)
+    except ValueError:
+        raise ObjectError("a damaged ASCII STL: a vertex coordinate is not a number") from None
+    return points.reshape(-1, 3), np.arange(len(found)).reshape(-1, 3)
+
+
+def _read_obj(data: bytes) -> Surface:
+    """An OBJ file's vertices and faces; 1-based indices, negative ones counting back."""
+    points: list[list[float]] = []
+    polygons: list[list[int]] = []
+    try:
+        lines = data.decode("utf-8").splitlines()
+    except UnicodeDecodeError as exc:
+        raise ObjectError(f"not an OBJ file: not text (byte {exc.start})") from None
+    for number, line in enumerate(lines, 1):
+        words = line.split()
+        if not words or words[0] not in ("v", "f"):
+            continue  # comments, normals, texture coordinates, groups, materials
+        try:
+            if words[0] == "v":
+                points.append([float(w) for w in words[1:4]])
+                if len(points[-1]) != 3:
+                    raise ValueError
+                continue
+            face = [int(w.split("/")[0]) for w in words[1:]]
+        except ValueError:
+            raise ObjectError(
+                f"line {number}: {line.strip()[:60]!r} is not a valid OBJ "
+                f"{'vertex' if words[0] == 'v' else 'face'}"
+            ) from None
+        if len(face) < 3:
+            raise ObjectError(f"line {number}: a face of {len(face)} corners")
+        n = len(points)
+        for i in face:
+            if i == 0 or not -n <= i <= n:
+                raise ObjectError(
+                    f"line {number}: face index {i} refers to no vertex ({n} defined before "
+                    f"it; indices are 1..{n}, or -1..-{n} counting back)"
+                )
+        polygons.append([i - 1 if i > 0 else n + i for i in face])
+    if not polygons:
+        raise ObjectError("holds no faces ('f' lines)")
+    return np.asarray(points, np.float64).reshape(-1, 3), _fans(polygons)
+
+
+def _ply_header(data: bytes) -> tuple[str, list[tuple[str, int, list[list[str]]]], int]:
+    """The format, the elements (name, count, properties) and where the data starts."""
+    if not data.startswith(b"ply"):
+        raise ObjectError("not a PLY file: it does not start with 'ply'")
+    end = re.search(rb"^end_header\r?\n", data, re.M)
+    if end is None:
+        raise ObjectError("a PLY header without 'end_header'")
+    try:
+        lines = data[: end.start()].decode("ascii").splitlines()[1:]
+    except UnicodeDecodeError:
+        raise ObjectError("a PLY header that is not ASCII text") from None
+    fmt, elements = "", []
+    for number, line in enumerate(lines, 2):
+        w = line.split()
+        bad = f"PLY header line {number}: {line.strip()[:60]!r}"
+        if not w or w[0] in ("comment", "obj_info"):
+            continue
+        if w[0] == "format":
+            if len(w) != 3 or w[1] not in ("ascii", "binary_little_endian", "binary_big_endian"):
+                raise ObjectError(f"{bad} is not a format (ascii or binary_*_endian 1.0)")
+            fmt = w[1]
+        elif w[0] == "element":
+            if len(w) != 3 or not w[2].isdigit():
+                raise ObjectError(f"{bad} is not 'element <name> <count>'")
+            elements.append((w[1], int(w[2]), []))
+        elif w[0] == "property":
+            scalar = len(w) == 3 and w[1] in _PLY_TYPES
+            listed = len(w) == 5 and w[1] == "list" and w[2] in _PLY_TYPES and w[3] in _PLY_TYPES
+            if not elements or not (scalar or listed):
+                raise ObjectError(f"{bad} is not a property of an element")
+            elements[-1][2].append(w[1:])
+        else:
+            raise ObjectError(f"{bad} is not a PLY header line")
+    if not fmt:
+        raise ObjectError("a PLY header without a 'format' line")
+    return fmt, elements, end.end()
+
+
+def _ply_ascii(body: bytes, elements: list) -> dict[str, list[list[float]]]:
+    """Each element's rows (a list's count and items in line) from an ASCII body."""
+    lines = iter(body.decode("ascii", "replace").splitlines())
+    rows: dict[str, list[list[float]]] = {}
+    for name, count, _ in elements:
+        out = rows.setdefault(name, [])
+        for k in range(count):
+            line = next(lines, None)
+            if line is None:
+                raise ObjectError(f"a truncated PLY file: {k} of its {count} {name} rows")
+            try:
+                out.append([float(v) for v in line.split()])
+            except ValueError:
+                raise ObjectError(f"a damaged PLY file: {name} row {k} is not numbers") from None
+    return rows
+
+
+def _uniform_lists(body: bytes, at: int, count: int, props: list, order: str) -> NDArray | None:
+    """A one-list element whose lists all match the first's length, read at once, or None."""
+    if count == 0 or len(props) != 1 or props[0][0] != "list":
+        return None
+    head = np.dtype(order + _PLY_TYPES[props[0][1]])
+    if at + head.itemsize > len(body):
+        return None
+    n = int(np.frombuffer(body, head, 1, at)[0])
+    if n < 1:
+        return None
+    dtype = np.dtype([("n", head), ("i", order + _PLY_TYPES[props[0][2]], (n,))])
+    if at + count * dtype.itemsize > len(body):
+        return None
+    block = np.frombuffer(body, dtype, count, at)
+    return block if (block["n"] == n).all() else None
+
+
+def _ply_binary(body: bytes, elements: list, order: str) -> dict[str, list[list[float]]]:
+    """Each element's rows from a binary body, every size checked against the data."""
+    rows: dict[str, list[list[float]]] = {}
+    at = 0
+    for name, count, props in elements:
+        out = rows.setdefault(name, [])
+        if all(p[0] != "list" for p in props):  # fixed rows: one read
+            dtype = np.dtype([(f"p{i}", order + _PLY_TYPES[p[0]]) for i, p in enumerate(props)])
+            if at + count * dtype.itemsize > len(body):
+                have = (len(body) - at) // max(dtype.itemsize, 1)
+                raise ObjectError(f"a truncated PLY file: {have} of its {count} {name} rows")
+            block = np.frombuffer(body, dtype, count, at)
+            out.extend(structured_to_unstructured(block, np.float64).tolist())
+            at += count * dtype.itemsize
+            continue
+        for k in range(count):
+            row: list[float] = []
+            for p in props:
+                kinds = (p[1], p[2]) if p[0] == "list" else (None, p[0])
+                n = 1
+                if kinds[0] is not None:
+                    t = np.dtype(order + _PLY_TYPES[kinds[0]])
+                    if at + t.itemsize > len(body):
+                        raise ObjectError(f"a truncated PLY file: {k} of its {count} {name} rows")
+                    n = int(np.frombuffer(body, t, 1, at)[0])
+                    row.append(n)
+                    at += t.itemsize
+                t = np.dtype(order + _PLY_TYPES[kinds[1]])
+                if n < 0 or at + n * t.itemsize > len(body):
+                    raise ObjectError(f"a truncated PLY file: {k} of its {count} {name} rows")
+                row.extend(np.frombuffer(body, t, n, at).tolist())
+                at += n * t.itemsize
+            out.append(row)
+    return rows
+
+
+def _read_ply(data: bytes) -> Surface:
+    """A PLY file's vertices (x, y, z) and faces (a vertex_indices list)."""
+    fmt, elements, start = _ply_header(data)
+    props = {name: p for name, _, p in elements}
+    names = [p[-1] for p in props.get("vertex", [])]
+    if not all(c in names for c in "xyz"):
+        raise ObjectError("a PLY file without vertex x, y and z properties")
+    faces = [i for i, p in enumerate(props.get("face", [])) if p[0] == "list"]
+    if "face" not in props or not faces:
+        raise ObjectError("a PLY file without faces (a 'face' element with a list property)")
+    body = data[start:]
+    if fmt == "ascii":
+        rows = _ply_ascii(body, elements)
+    else:
+        rows = _ply_binary(body, elements, "<" if fmt == "binary_little_endian" else ">")
+    xyz = [names.index(c) for c in "xyz"]
+    if any(len(r) != len(names) for r in rows["vertex"]):
+        raise ObjectError("a damaged PLY file: a vertex row of the wrong length")
+    points = np.asarray(rows["vertex"], np.float64).reshape(-1, len(names))[:, xyz]
+    skip = sum(1 for p in props["face"][: faces[0]])  # scalar properties before the list
+    polygons = []
+    for k, r in enumerate(rows["face"]):
+        n = int(r[skip]) if len(r) > skip else -1
+        face = [int(v) for v in r[skip + 1 : skip + 1 + n]]
+        if n < 3 or len(face) != n:
+            raise ObjectError(f"a damaged PLY file: face {k} has no polygon of 3 or more corners")
+        if min(face) < 0 or max(face) >= len(points):
+            raise ObjectError(
+                f"face {k} refers to vertex {max(face) if min(face) >= 0 else min(face)}: "
+                f"the file has vertices 0..{len(points) - 1}"
+            )
+        polygons.append(face)
+    return points, _fans(polygons)
+
+
+def read_surface_file(path: Path, prefix: str) -> Surface:
+    """The points and triangles of an STL, OBJ or PLY file (polygons fanned into triangles).
+
+    Parameters
+    ----------
+    path : Path
+        A file whose suffix is one of :data:`SURFACE_FORMATS`.
+    prefix : str
+        Starts every message (``object[0].mesh = '<path>': ``).
+
+    Returns
+    -------
+    points : ndarray, shape (N, 3)
+    triangles : ndarray of int, shape (M, 3)
+
+    Raises
+    ------
+    ObjectError
+        One line: the file cannot be read, or what is wrong with it.
+    """
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise ObjectError(f"{prefix}cannot be read ({exc.strerror or exc})") from None
+    reader = {".stl": _read_stl, ".obj": _read_obj, ".ply": _read_ply}[path.suffix.lower()]
+    try:
+        return reader(data)
+    except ObjectError as exc:
+        raise ObjectError(f"{prefix}{exc}") from None
