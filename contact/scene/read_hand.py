@@ -71,11 +71,13 @@ def read_hand(r: SceneReader, data: dict, base: Path) -> tuple[HandScene, Skelet
     if "hand" not in data:
         return None
     h = r.table(data["hand"], "hand", required=("keyframe",), optional=HAND_KEYS)
-    directory = (
-        (base / Path(r.string(h["directory"], "hand.directory")).expanduser()).resolve()
-        if "directory" in h
-        else HandScene.directory
-    )
+    directory = HandScene.directory
+    if "directory" in h:
+        given = Path(r.string(h["directory"], "hand.directory")).expanduser()
+        try:
+            directory = (base / given).resolve()
+        except (RuntimeError, OSError):  # a symlink loop
+            raise r.fail("hand.directory", h["directory"], "a symlink loop") from None
     if "directory" in h and not directory.is_dir():
         raise r.fail("hand.directory", h["directory"], f"no such folder ({directory})")
     resolution = r.string(h.get("resolution", HandScene.resolution), "hand.resolution", RESOLUTIONS)

@@ -1,4 +1,4 @@
-"""Mesh and rig paths of a scene that cannot be followed: one line naming the key, exit 2."""
+"""Scene paths that cannot be followed (a symlink loop): one line naming the key, exit 2."""
 
 from __future__ import annotations
 
@@ -26,6 +26,10 @@ times = [0.0]
 SCENES = {
     "ball.mesh": '[ball]\nradius = 0.02\nmesh = "loop"\n',
     "object[0].mesh": '[[object]]\nmesh = "loop"\n',
+    "hand.directory": (
+        f'[[object]]\nmesh = "{CUBE}"\n\n[hand]\ndirectory = "loop"\n\n'
+        "[[hand.keyframe]]\ntime = 0.0\nangles = {}\n"
+    ),
     "hand.rig": (
         f'[[object]]\nmesh = "{CUBE}"\n\n[hand]\nrig = "loop"\n\n'
         "[[hand.keyframe]]\ntime = 0.0\nangles = {}\n"
