@@ -55,6 +55,13 @@ STEP_TOL = 1e-9
 RESIDUAL = 1e-8
 #: Halvings of a step that would turn a cell inside out.
 HALVINGS = 20
+#: From this Newton step on, where the steps shrink slowly (:data:`FAST`), a free body's
+#: placement is Anderson-mixed from its last :data:`ANDERSON` steps: the material
+#: tangent converges linearly, and the mixing takes up the rate it leaves.
+ANDERSON_FROM = 4
+ANDERSON = 3
+#: Steps that shrink by more than this ratio are Newton's own: they are left whole.
+FAST = 0.05
 
 
 @dataclass(frozen=True)
@@ -180,6 +187,7 @@ def solve_finite_frame(
     size = {b.name: float(np.ptp(b.mesh.points, axis=0).max()) for b in finite}
     res, residual, stop = None, np.inf, "iteration limit"
     springs: dict[str, sp.csr_matrix] = {}
+    history: list[tuple[NDArray, NDArray]] = []
     for step in range(1, max_steps + 1):
         lin = {b.name: b.linearised(u[b.name], springs.get(b.name)) for b in finite}
         now = [lin.get(b.name, b) for b in bodies]
@@ -198,10 +206,15 @@ def solve_finite_frame(
             stop = res.stop_reason
             break
         moves = {}
+        steps_now = {b.name: res.displacement[b.name].ravel() for b in finite}
+        mixed = _anderson(history, u, steps_now, [b.name for b in finite if b.free])
+        if step < ANDERSON_FROM or not _slow(history):
+            mixed = {}
         for b in finite:
-            du = res.displacement[b.name].ravel()
+            du = steps_now[b.name]
             moves[b.name] = float(np.abs(du).max(initial=0.0)) / size[b.name]
-            u[b.name] = u[b.name] + _inside_out_safe(b, u[b.name], du)
+            target = mixed.get(b.name, u[b.name] + du) - u[b.name]
+            u[b.name] = u[b.name] + _inside_out_safe(b, u[b.name], target)
         residual = max(
             (_residual(b, u[b.name], res.contact_force[b.name]) for b in finite), default=0.0
         )
@@ -238,6 +251,40 @@ def _springs(body: FiniteBody, res: FrameResult, lin: ElasticBody) -> sp.csr_mat
     rows = np.repeat(dofs, 3, axis=1).ravel()
     cols = np.tile(dofs, 3).ravel()
     return sp.csr_matrix((blocks.ravel(), (rows, cols)), shape=(n, n))
+
+
+def _slow(history) -> bool:
+    """The last two steps shrink by less than :data:`FAST`: linear, not Newton's, rate."""
+    if len(history) < 2:
+        return False
+    a, b = (float(np.linalg.norm(h[1])) for h in history[-2:])
+    return b > FAST * a
+
+
+def _anderson(history, u, steps, names, depth: int = ANDERSON):
+    """Anderson-mixed placements of the free bodies ``names`` from their last steps.
+
+    ``history`` keeps the last ``depth + 1`` placements and steps (appended here); the
+    mix is the type-II update of the fixed point ``u -> u + du``.
+    """
+    if not names:
+        return {}
+    x = np.concatenate([u[n] for n in names])
+    f = np.concatenate([steps[n] for n in names])
+    history.append((x.copy(), f.copy()))
+    del history[:-(depth + 1)]
+    new = x + f
+    if len(history) > 1:
+        dx = np.column_stack([history[i + 1][0] - history[i][0] for i in range(len(history) - 1)])
+        df = np.column_stack([history[i + 1][1] - history[i][1] for i in range(len(history) - 1)])
+        gamma = np.linalg.lstsq(df, f, rcond=None)[0]
+        new = new - (dx + df) @ gamma
+    out, k = {}, 0
+    for n in names:
+        m = u[n].size
+        out[n] = new[k : k + m]
+        k += m
+    return out
 
 
 def _inside_out_safe(body: FiniteBody, u: NDArray, du: NDArray) -> NDArray:
