@@ -45,6 +45,7 @@ __all__ = [
     "cauchy_stress",
     "finite_strain",
     "jacobian_less_one",
+    "log_strain",
     "neo_hookean",
 ]
 
@@ -346,6 +347,23 @@ def cauchy_stress(
             pressure = _group_slope(dvol, vol0, kappa)
         sigma += pressure[:, None, None, None] * np.eye(3)
         out[kind] = sigma
+    return out
+
+
+def log_strain(mesh: Mesh, u: ArrayLike) -> dict[str, NDArray[np.float64]]:
+    """Principal logarithmic strains ``ln(lambda_i)`` ``(M, q, 3)``, ascending, per cell block.
+
+    ``lambda_i`` the principal stretches (square roots of the eigenvalues of
+    ``C = F^T F``): the finite-strain measure a ">10 % strain" reads, 0 for a rigid turn
+    of any angle. ``log1p`` of ``(C - I)``'s eigenvalues keeps a small strain's digits.
+    """
+    ua = np.asarray(u, dtype=np.float64).reshape(-1, 3)
+    out = {}
+    for kind in mesh.cells:
+        _, _, hg, _ = _kinematics(mesh, kind, ua)
+        e2 = hg + np.swapaxes(hg, -1, -2) + np.swapaxes(hg, -1, -2) @ hg  # C - I
+        w = np.linalg.eigvalsh(e2.reshape(-1, 3, 3)).reshape(*hg.shape[:2], 3)
+        out[kind] = 0.5 * np.log1p(w)
     return out
 
 

@@ -190,3 +190,15 @@ def test_the_material_tangent_holds_exactly_the_rigid_modes_of_the_placement(mes
     # the full tangent does not: a stressed body's turn moves its forces
     full = finite_strain(mesh, mat, u).stiffness.toarray()
     assert np.abs(full @ modes).max() > 1e-3 * np.abs(full).max()
+
+
+def test_log_strain_of_a_stretch_and_a_turn(mesh):
+    from fem.hyperelastic import log_strain
+
+    x = mesh.points
+    stretch = x * np.array([0.3, -0.2, 0.0])  # stretches 1.3, 0.8, 1
+    c, s = np.cos(1.0), np.sin(1.0)
+    turn = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+    for u in (stretch, (x + stretch) @ turn.T - x):
+        for e in log_strain(mesh, u).values():
+            assert np.allclose(e, np.log([0.8, 1.0, 1.3]), rtol=0, atol=1e-12)
