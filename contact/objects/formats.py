@@ -12,6 +12,7 @@ that refers to no vertex, a header line that is not PLY's.
 from __future__ import annotations
 
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +27,8 @@ __all__ = ["SURFACE_FORMATS", "read_surface_file"]
 SURFACE_FORMATS = (".stl", ".obj", ".ply")
 
 Surface = tuple[NDArray[np.float64], NDArray[np.int64]]
+#: An element's rows: one array when all are alike, else lists.
+Rows = NDArray[np.float64] | list[list[float]]
 
 #: PLY's scalar types as numpy's (without the byte order).
 _PLY_TYPES = {
@@ -35,11 +38,16 @@ _PLY_TYPES = {
     "float": "f4", "float32": "f4", "double": "f8", "float64": "f8",
 }  # fmt: skip
 _STL_RECORD = np.dtype([("normal", "<f4", 3), ("corners", "<f4", (3, 3)), ("attr", "<u2")])
+_OBJ_LINE = re.compile(rb"^[ \t]*([vf])[ \t]+([^\r\n]*)", re.M)
 _STL_VERTEX = re.compile(rb"^\s*vertex\s+(\S+)\s+(\S+)\s+(\S+)", re.M)
 
 
-def _fans(polygons: list[list[int]]) -> NDArray[np.int64]:
-    """Polygons split into triangles fanned from their first corner."""
+def _fans(polygons: NDArray[np.int64] | list[list[int]]) -> NDArray[np.int64]:
+    """Polygons (an array of equal ones, or lists) split into triangles fanned from corner 0."""
+    if isinstance(polygons, np.ndarray):
+        c = polygons
+        fan = [np.stack([c[:, 0], c[:, k], c[:, k + 1]], axis=1) for k in range(1, c.shape[1] - 1)]
+        return np.stack(fan, axis=1).reshape(-1, 3)
     tri = [(p[0], p[k], p[k + 1]) for p in polygons for k in range(1, len(p) - 1)]
     return np.asarray(tri, np.int64).reshape(-1, 3)
 
@@ -79,8 +87,39 @@ def _read_stl(data: bytes) -> Surface:
     return points.reshape(-1, 3), np.arange(len(found)).reshape(-1, 3)
 
 
+def _numbers(lines: list[bytes]) -> NDArray[np.float64] | None:
+    """Lines of as many numbers as the first as one array, or None when they are not."""
+    width = len(lines[0].split()) if lines else 0
+    with warnings.catch_warnings():  # numpy's notice of text it could not parse
+        warnings.simplefilter("ignore")
+        flat = np.fromstring(b" ".join(lines).decode("ascii", "replace"), sep=" ")
+    return flat.reshape(len(lines), width) if width and flat.size == len(lines) * width else None
+
+
+def _read_obj_at_once(data: bytes) -> Surface | None:
+    """An OBJ file of alike vertex and face lines read with numpy; None if they are not.
+
+    None also for a file with any fault: the line by line reader then names the line.
+    """
+    found = _OBJ_LINE.findall(data)
+    is_v = np.fromiter((kind == b"v" for kind, _ in found), bool, len(found))
+    points = _numbers([rest for kind, rest in found if kind == b"v"])
+    faces = [re.sub(rb"/[^ \t]*", b"", rest) for kind, rest in found if kind == b"f"]
+    corners = _numbers(faces)
+    if points is None or corners is None or points.shape[1] < 3 or corners.shape[1] < 3:
+        return None
+    index = corners.astype(np.int64)
+    before = np.cumsum(is_v)[~is_v][:, None]  # the vertices defined before each face
+    if (index != corners).any() or (index == 0).any() or (np.abs(index) > before).any():
+        return None
+    return points[:, :3].copy(), _fans(np.where(index > 0, index - 1, before + index))
+
+
 def _read_obj(data: bytes) -> Surface:
     """An OBJ file's vertices and faces; 1-based indices, negative ones counting back."""
+    fast = _read_obj_at_once(data)
+    if fast is not None:
+        return fast
     points: list[list[float]] = []
     polygons: list[list[int]] = []
     try:
@@ -156,20 +195,31 @@ def _ply_header(data: bytes) -> tuple[str, list[tuple[str, int, list[list[str]]]
     return fmt, elements, end.end()
 
 
-def _ply_ascii(body: bytes, elements: list) -> dict[str, list[list[float]]]:
+def _truncated(k: int, count: int, name: str) -> ObjectError:
+    return ObjectError(f"a truncated PLY file: {k} of its {count} {name} rows")
+
+
+def _ply_ascii(body: bytes, elements: list) -> dict[str, Rows]:
     """Each element's rows (a list's count and items in line) from an ASCII body."""
-    lines = iter(body.decode("ascii", "replace").splitlines())
-    rows: dict[str, list[list[float]]] = {}
+    lines = body.decode("ascii", "replace").splitlines()
+    rows: dict[str, Rows] = {}
+    at = 0
     for name, count, _ in elements:
-        out = rows.setdefault(name, [])
-        for k in range(count):
-            line = next(lines, None)
-            if line is None:
-                raise ObjectError(f"a truncated PLY file: {k} of its {count} {name} rows")
-            try:
-                out.append([float(v) for v in line.split()])
-            except ValueError:
-                raise ObjectError(f"a damaged PLY file: {name} row {k} is not numbers") from None
+        block = lines[at : at + count]
+        if len(block) < count:
+            raise _truncated(len(block), count, name)
+        at += count
+        width = len(block[0].split()) if count else 0
+        with warnings.catch_warnings():  # numpy's notice of text it could not parse
+            warnings.simplefilter("ignore")
+            flat = np.fromstring(" ".join(block), sep=" ") if count else np.zeros(0)
+        if count and flat.size == count * width:  # rows alike: one array at once
+            rows[name] = flat.reshape(count, width)
+            continue
+        try:
+            rows[name] = [[float(v) for v in line.split()] for line in block]
+        except ValueError:
+            raise ObjectError(f"a damaged PLY file: a {name} row that is not numbers") from None
     return rows
 
 
@@ -190,21 +240,25 @@ def _uniform_lists(body: bytes, at: int, count: int, props: list, order: str) ->
     return block if (block["n"] == n).all() else None
 
 
-def _ply_binary(body: bytes, elements: list, order: str) -> dict[str, list[list[float]]]:
+def _ply_binary(body: bytes, elements: list, order: str) -> dict[str, Rows]:
     """Each element's rows from a binary body, every size checked against the data."""
-    rows: dict[str, list[list[float]]] = {}
+    rows: dict[str, Rows] = {}
     at = 0
     for name, count, props in elements:
-        out = rows.setdefault(name, [])
         if all(p[0] != "list" for p in props):  # fixed rows: one read
             dtype = np.dtype([(f"p{i}", order + _PLY_TYPES[p[0]]) for i, p in enumerate(props)])
             if at + count * dtype.itemsize > len(body):
-                have = (len(body) - at) // max(dtype.itemsize, 1)
-                raise ObjectError(f"a truncated PLY file: {have} of its {count} {name} rows")
+                raise _truncated((len(body) - at) // max(dtype.itemsize, 1), count, name)
             block = np.frombuffer(body, dtype, count, at)
-            out.extend(structured_to_unstructured(block, np.float64).tolist())
-            at += count * dtype.itemsize
+            rows[name] = structured_to_unstructured(block, np.float64).reshape(count, -1)
+            at += block.nbytes
             continue
+        uniform = _uniform_lists(body, at, count, props, order)
+        if uniform is not None:
+            rows[name] = structured_to_unstructured(uniform, np.float64)
+            at += uniform.nbytes
+            continue
+        out: list[list[float]] = []
         for k in range(count):
             row: list[float] = []
             for p in props:
@@ -213,17 +267,34 @@ def _ply_binary(body: bytes, elements: list, order: str) -> dict[str, list[list[
                 if kinds[0] is not None:
                     t = np.dtype(order + _PLY_TYPES[kinds[0]])
                     if at + t.itemsize > len(body):
-                        raise ObjectError(f"a truncated PLY file: {k} of its {count} {name} rows")
+                        raise _truncated(k, count, name)
                     n = int(np.frombuffer(body, t, 1, at)[0])
                     row.append(n)
                     at += t.itemsize
                 t = np.dtype(order + _PLY_TYPES[kinds[1]])
                 if n < 0 or at + n * t.itemsize > len(body):
-                    raise ObjectError(f"a truncated PLY file: {k} of its {count} {name} rows")
+                    raise _truncated(k, count, name)
                 row.extend(np.frombuffer(body, t, n, at).tolist())
                 at += n * t.itemsize
             out.append(row)
+        rows[name] = out
     return rows
+
+
+def _ply_polygons(rows: Rows, skip: int, props: list) -> NDArray[np.int64] | list[list[int]]:
+    """The faces' corner indices: an array when every face has as many, else lists."""
+    if isinstance(rows, np.ndarray) and len(props) == 1 and rows.shape[1] >= 4:
+        if (rows[:, 0] == rows.shape[1] - 1).all():
+            return rows[:, 1:].astype(np.int64)
+        rows = rows.tolist()
+    polygons = []
+    for k, r in enumerate(rows):
+        n = int(r[skip]) if len(r) > skip else -1
+        face = [int(v) for v in r[skip + 1 : skip + 1 + n]]
+        if n < 3 or len(face) != n:
+            raise ObjectError(f"a damaged PLY file: face {k} has no polygon of 3 or more corners")
+        polygons.append(face)
+    return polygons
 
 
 def _read_ply(data: bytes) -> Surface:
@@ -241,23 +312,22 @@ def _read_ply(data: bytes) -> Surface:
         rows = _ply_ascii(body, elements)
     else:
         rows = _ply_binary(body, elements, "<" if fmt == "binary_little_endian" else ">")
-    xyz = [names.index(c) for c in "xyz"]
-    if any(len(r) != len(names) for r in rows["vertex"]):
+    vertex = rows["vertex"]
+    if any(len(r) != len(names) for r in vertex):
         raise ObjectError("a damaged PLY file: a vertex row of the wrong length")
-    points = np.asarray(rows["vertex"], np.float64).reshape(-1, len(names))[:, xyz]
-    skip = sum(1 for p in props["face"][: faces[0]])  # scalar properties before the list
-    polygons = []
-    for k, r in enumerate(rows["face"]):
-        n = int(r[skip]) if len(r) > skip else -1
-        face = [int(v) for v in r[skip + 1 : skip + 1 + n]]
-        if n < 3 or len(face) != n:
-            raise ObjectError(f"a damaged PLY file: face {k} has no polygon of 3 or more corners")
-        if min(face) < 0 or max(face) >= len(points):
-            raise ObjectError(
-                f"face {k} refers to vertex {max(face) if min(face) >= 0 else min(face)}: "
-                f"the file has vertices 0..{len(points) - 1}"
-            )
-        polygons.append(face)
+    points = np.asarray(vertex, np.float64).reshape(-1, len(names))[
+        :, [names.index(c) for c in "xyz"]
+    ]
+    polygons = _ply_polygons(rows["face"], faces[0], props["face"])
+    n = len(points)
+    if isinstance(polygons, np.ndarray):
+        out = (polygons < 0) | (polygons >= n)
+        bad = [(int(k), int(polygons[k][out[k]][0])) for k in np.flatnonzero(out.any(axis=1))[:1]]
+    else:
+        bad = [(k, v) for k, f in enumerate(polygons) for v in f if not 0 <= v < n][:1]
+    if bad:
+        k, v = bad[0]
+        raise ObjectError(f"face {k} refers to vertex {v}: the file has vertices 0..{n - 1}")
     return points, _fans(polygons)
 
 

@@ -67,6 +67,11 @@ def good_files(tmp_path: Path) -> dict[str, Path]:
         + "vn 0 0 1\nvt 0 0\ns off\n"
         + "f 1/1/1 3/1/1 2/1/1\nf -4//1 -3//1 -1//1\nf 1 4 3\nf -3 -2 -1\n"
     )
+    # one vertex with a weight: lines not alike, read line by line
+    files["weighted.obj"] = tmp_path / "weighted.obj"
+    text = files["mixed.obj"].read_text()
+    files["weighted.obj"].write_text(text.replace("v 0.0 0.0 0.0\n", "v 0.0 0.0 0.0 1.0\n"))
+    assert text != files["weighted.obj"].read_text()
     return files
 
 
