@@ -98,8 +98,9 @@ def read_surface(
             warnings.simplefilter("ignore")
             data = data.extract_surface()
     if data.faces.size == 0:
-        if said and data.n_points == 0:
-            why = str(said[0].message).strip().splitlines()[0][:200]
+        if data.n_points == 0:  # VTK's reader failed, its own output silenced
+            why = str(said[0].message).strip().splitlines()[0][:200] if said else ""
+            why = why or "VTK's reader found nothing in it (an empty or damaged file)"
             raise ObjectError(f"{prefix}cannot be read: {why}")
         raise ObjectError(f"{prefix}holds no triangles or polygons")
     poly = data.triangulate()
@@ -227,10 +228,10 @@ def mesh_object(
         return mesh
     try:
         surface = read_surface(path, where=where)
-    except ObjectError:
-        if unread is None:
+    except ObjectError as exc:
+        if unread is None or "automatically read" not in str(exc):  # pyvista's reader told
             raise
-        raise ObjectError(f"{prefix}cannot be read: {unread}") from None
+        raise ObjectError(f"{prefix}cannot be read: {unread}") from None  # neither knows it
     points, tri = check_object_surface(*surface, path, where=where)
     log.info(
         "%s = '%s': a surface of %d triangles, filled with tetrahedra (edge %s)",

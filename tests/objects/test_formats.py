@@ -149,3 +149,22 @@ def test_bad_files_reach_the_cli_as_one_line_exit_2(tmp_path: Path) -> None:
     for k, name in enumerate(("negative.obj", "truncated.stl", "header.ply", "truncated.ply")):
         assert lines[2 * k].startswith(f"error: {scenes[k]}: object[0].mesh = '")
         assert lines[2 * k].endswith(BAD[name]) and lines[2 * k + 1] == "2"
+
+
+def test_a_damaged_file_pyvista_reads_is_one_line_and_vtk_says_nothing(tmp_path: Path) -> None:
+    """VTK's errors go to the process's stderr: read in a child process."""
+    path = tmp_path / "damaged.vtp"
+    path.write_text('<?xml version="1.0"?>\n<VTKFile type="PolyData"><PolyData><Piece ')
+    code = (
+        "import sys\nfrom contact.objects import mesh_object\n"
+        "try:\n    mesh_object(sys.argv[1], 0.01)\n"
+        "except ValueError as exc:\n    print(exc)\n"
+    )
+    run = subprocess.run(
+        [sys.executable, "-c", code, str(path)], capture_output=True, text=True, timeout=60
+    )
+    assert run.stderr == ""
+    assert run.stdout == (
+        f"object.mesh = '{path}': cannot be read: VTK's reader found nothing in it "
+        "(an empty or damaged file)\n"
+    )
