@@ -108,8 +108,11 @@ def _read(
     try:
         data = target.read_bytes()
         record = json.loads(target.with_suffix(".json").read_text())
+    except FileNotFoundError:  # kept before records were: filled again without a word
+        log.info("the cached mesh %s has no record of its fill: filled again", target)
+        return None, None
     except (OSError, ValueError):
-        return None, "has no record of its fill"
+        return None, "has a damaged record of its fill"
     if not isinstance(record, dict) or record.get("sha256") != hashlib.sha256(data).hexdigest():
         return None, "was changed after it was kept"
     try:

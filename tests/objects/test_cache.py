@@ -98,7 +98,7 @@ def test_a_kept_fill_that_is_not_the_surfaces_is_filled_again(
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # the refill was kept: read without a word
         again = mesh_object(cube, 0.04, optimize=False)
-    assert np.array_equal(again.points, mesh.points)
+        assert np.array_equal(again.points, mesh.points)
     assert first.n_points > 0
 
 
@@ -165,3 +165,26 @@ def test_a_lock_left_by_a_dead_run_does_not_block(
     start = time.monotonic()
     mesh = cached(cube, "size=0.04", lambda: box, surface)
     assert time.monotonic() - start < 2.0 and mesh is box
+
+
+def test_a_mesh_kept_without_its_record_is_filled_again_quietly(
+    cube: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import json
+    import warnings
+
+    from contact.objects.cache import cached
+
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path / "cache"))
+    box, surface = _box()
+    cached(cube, "size=0.04", lambda: box, surface)
+    (target,) = (tmp_path / "cache" / "objects").glob("*.vtu")
+    record = target.with_suffix(".json")
+    record.unlink()  # as an older cache kept its meshes
+    fills = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        cached(cube, "size=0.04", lambda: fills.append(1) or box, surface)
+    assert fills == [1]
+    kept = json.loads(record.read_text())["sha256"]
+    assert kept == hashlib.sha256(target.read_bytes()).hexdigest()
