@@ -52,13 +52,21 @@ def _fans(polygons: NDArray[np.int64] | list[list[int]]) -> NDArray[np.int64]:
     return np.asarray(tri, np.int64).reshape(-1, 3)
 
 
+def _shared(corners: NDArray[np.float64]) -> Surface:
+    """STL's corners, three a triangle, as points shared by the triangles that meet there."""
+    corners = np.ascontiguousarray(corners + 0.0)  # -0.0 as 0.0: one point, one key
+    key = corners.view(np.dtype((np.void, 24))).ravel()
+    _, first, inverse = np.unique(key, return_index=True, return_inverse=True)
+    return corners[first], inverse.reshape(-1, 3).astype(np.int64)
+
+
 def _read_stl(data: bytes) -> Surface:
     """A binary STL (its size told by its triangle count) or an ASCII one."""
     if len(data) >= 84:
         n = int(np.frombuffer(data, "<u4", 1, 80)[0])
         if len(data) == 84 + 50 * n:
             corners = np.frombuffer(data, _STL_RECORD, n, 84)["corners"]
-            return corners.reshape(-1, 3).astype(np.float64), np.arange(3 * n).reshape(-1, 3)
+            return _shared(corners.reshape(-1, 3).astype(np.float64))
     if not data.lstrip().startswith(b"solid"):
         if len(data) < 84:
             raise ObjectError(f"not an STL file: {len(data)} bytes, no binary header")
@@ -84,7 +92,7 @@ def _read_stl(data: bytes) -> Surface:
         points = np.array(found, dtype=np.float64)
     except ValueError:
         raise ObjectError("a damaged ASCII STL: a vertex coordinate is not a number") from None
-    return points.reshape(-1, 3), np.arange(len(found)).reshape(-1, 3)
+    return _shared(points.reshape(-1, 3))
 
 
 def _numbers(lines: list[bytes]) -> NDArray[np.float64] | None:

@@ -79,6 +79,7 @@ def test_good_files_read_as_written(tmp_path: Path) -> None:
     for name, path in good_files(tmp_path).items():
         points, tri = read_surface(path)
         assert triangles_of(points, tri) == EXPECTED, name
+        assert len(points) == 4, name  # STL's corners shared, as the other formats give them
 
 
 BAD = {
