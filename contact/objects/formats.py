@@ -62,12 +62,13 @@ def _shared(corners: NDArray[np.float64]) -> Surface:
 
 def _read_stl(data: bytes) -> Surface:
     """A binary STL (its size told by its triangle count) or an ASCII one."""
+    is_text = data.lstrip().startswith(b"solid")
     if len(data) >= 84:
         n = int(np.frombuffer(data, "<u4", 1, 80)[0])
-        if len(data) == 84 + 50 * n:
+        if len(data) == 84 + 50 * n or (len(data) > 84 + 50 * n and not is_text):  # padded
             corners = np.frombuffer(data, _STL_RECORD, n, 84)["corners"]
             return _shared(corners.reshape(-1, 3).astype(np.float64))
-    if not data.lstrip().startswith(b"solid"):
+    if not is_text:
         if len(data) < 84:
             raise ObjectError(f"not an STL file: {len(data)} bytes, no binary header")
         raise ObjectError(
@@ -75,7 +76,7 @@ def _read_stl(data: bytes) -> Surface:
             f"({84 + 50 * n} bytes), the file has {len(data)} bytes"
         )
     try:
-        text = data.decode("ascii")
+        ascii_text = data.decode("ascii")
     except UnicodeDecodeError as exc:
         size = "" if len(data) < 84 else f": {n} triangles, {84 + 50 * n} bytes"
         raise ObjectError(
@@ -84,7 +85,7 @@ def _read_stl(data: bytes) -> Surface:
             f"0x{data[exc.start]:02x}): truncated or damaged"
         ) from None
     found = _STL_VERTEX.findall(data)
-    if not re.search(r"^\s*endsolid", text, re.M):
+    if not re.search(r"^\s*endsolid", ascii_text, re.M):
         raise ObjectError(f"a truncated ASCII STL: no 'endsolid' after {len(found)} vertices")
     if len(found) % 3:
         raise ObjectError(f"a damaged ASCII STL: {len(found)} vertices, not three a facet")
