@@ -7,12 +7,13 @@ one log line each. On stdout it reports one line a frame and a closing line
 (:mod:`contact.report`; ``--quiet`` silences them). Exit status (:data:`EXIT_STATUS`): 0
 when every frame converged with every bone under its limit, 1 when a frame did not
 converge, a bone passed its limit or a free body is not held (everything is still written;
-stderr names each such frame and why, unless ``--quiet``), 2 for bad input (one line on
-stderr naming the file, key or element; nothing written), 3 for an internal error (one
-line naming the exception and a log file holding its traceback), 4 for an I/O failure (a
-folder that cannot be written, a full disk, a race lost to another run), 130 and 143 when
-interrupted by SIGINT (Ctrl-C) and SIGTERM (one line; the staging folder removed, the
-previous results untouched).
+stderr names each such frame and why, unless ``--quiet``; the run stops at the first frame
+not held, the frames after it reported as not solved: :mod:`contact.unheld`), 2 for bad
+input (one line on stderr naming the file, key or element; nothing written), 3 for an
+internal error (one line naming the exception and a log file holding its traceback), 4 for
+an I/O failure (a folder that cannot be written, a full disk, a race lost to another run),
+130 and 143 when interrupted by SIGINT (Ctrl-C) and SIGTERM (one line; the staging folder
+removed, the previous results untouched).
 
 Each frame's record gets the grasp's figures (:mod:`contact.output.summary`): the grip
 force, the forces, contact area and peak pressure per hand part, and the largest strain
@@ -51,12 +52,13 @@ from typing import TextIO
 
 import fem
 
+from . import unheld
 from .errors import ContactError, OutputError, SceneError, TargetError
 from .hand.fingers import node_parts
 from .leastgrip import Trial, judge, least_grip
 from .output import BodyFrame, ResultsWriter, summary, versions
 from .poseonly import pose_only
-from .report import frame_line, least_grip_line, summary_line, trial_line
+from .report import frame_line, least_grip_line, trial_line
 from .run import GraspRun
 from .scene.read import load_scene
 from .solver.body import ElasticBody
@@ -70,7 +72,8 @@ log = logging.getLogger(__name__)
 EXIT_STATUS = (
     "Exit status: 0 every frame converged with every bone under its limit; 1 a frame did "
     "not converge, a bone passed its limit or a free body is not held (results are still "
-    "written; stderr names the frames and why, unless --quiet); 2 bad input (one line; "
+    "written; stderr names the frames and why, unless --quiet; the run stops at the first "
+    "frame not held, the later frames reported as not solved); 2 bad input (one line; "
     "nothing written); "
     "3 an internal error (one line and the path of a log file with its traceback); 4 an "
     "I/O failure (a folder that cannot be written, a full disk, a race lost to another "
@@ -190,6 +193,7 @@ def run(
     entries = []
     results: list[FrameResult] = []
     found = None
+    unsolved: list[dict] = []
     try:
         run_ = GraspRun(scene)
         hand_labels: dict = {}
@@ -199,7 +203,7 @@ def run(
                 "cell_bone": run_.hand.cell_bone,
                 "bone_names": run_.hand.skeleton.bone_names,
             }
-        for i in solved:
+        for k, i in enumerate(solved):
             _check_terminated()
             t = times[i]
             t0 = time.perf_counter()
@@ -212,9 +216,16 @@ def run(
 
             result, extra, planes, frame_bodies = run_.frame(t, tell)
             results.append(result)
+            gone = unheld.lost(result)
+            if gone:  # no defined state to go on from: the run stops here (contact.unheld)
+                status = 1
+                later = [j for j in solved[k + 1 :] if j in chosen]
+                unsolved = unheld.not_solved(i, t, result, [(j, times[j]) for j in later])
             if i not in chosen:
                 log.info("t = %g: replayed for the friction history (not written)", t)
                 bar.update(1)
+                if gone:
+                    break
                 continue
             bodies = {
                 b.name: BodyFrame(
@@ -241,12 +252,16 @@ def run(
             if not quiet:
                 bar.write(frame_line(entry, time.perf_counter() - t0), file=sys.stdout)
             bar.update(1)
+            if gone:
+                break
         if least:
             found = _least_grip(run_, times, results, bar, quiet)
         _check_terminated()
         writer.finish(scene.echo(), versions=versions())
         if found is not None:
             summary.add_least_grip(directory / "summary.json", found)
+        if unsolved:
+            unheld.add_not_solved(directory / "summary.json", unsolved)
     except OutputError as exc:
         writer.abort()
         bar.close()
@@ -263,22 +278,26 @@ def run(
         raise
     bar.close()
     if not quiet:
-        print(summary_line(entries, directory), flush=True)
+        if unsolved:
+            print(unheld.not_solved_line(unsolved), flush=True)
+        print(unheld.closing_line(entries, directory, unsolved), flush=True)
         if found is not None:
             print(least_grip_line(found), flush=True)
     if status and not quiet:
-        _tell_failed(entries, directory)
+        _tell_failed(entries, directory, unsolved)
     return status
 
 
-def _tell_failed(entries: Sequence[dict], directory: Path) -> None:
-    """On stderr: each frame not realistic and why (the first few), then the folder."""
+def _tell_failed(entries: Sequence[dict], directory: Path, unsolved: Sequence[dict]) -> None:
+    """On stderr: each frame not realistic and why (the first few), those not solved, the folder."""
     failed = [e for e in entries if not e["verdict"]["realistic"]]
     for e in failed[:_FAILED_LINES]:
         print(f"frame {e['index']} (t = {e['time']:g}): {e['verdict']['reason']}", file=sys.stderr)
     if len(failed) > _FAILED_LINES:
         more = len(failed) - _FAILED_LINES
         print(f"... and {more} more frames not realistic (summary.json)", file=sys.stderr)
+    if unsolved:
+        print(unheld.not_solved_message(unsolved), file=sys.stderr)
     print(f"results in {directory}", file=sys.stderr)
 
 
