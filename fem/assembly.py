@@ -21,6 +21,7 @@ from .mesh import Mesh
 from .nodalpressure import nodal_pressure_correction
 
 __all__ = [
+    "assemble_blocks",
     "assemble_stiffness",
     "element_blocks",
     "element_dofs",
@@ -167,4 +168,37 @@ def assemble_stiffness(
     )
     if nodal_pressure and "tetra" in mesh.cells:
         return (bsr.tocsr() + nodal_pressure_correction(mesh, materials)).tocsr()
+    return bsr.tocsr()
+
+
+def assemble_blocks(
+    mesh: Mesh, blocks: dict[str, list[NDArray[np.float64]]]
+) -> sp.csr_matrix:
+    """Sum element node-pair blocks into one sparse matrix over the mesh's DOFs.
+
+    ``blocks`` maps a cell kind to arrays ``(M, n, n, 3, 3)`` of its cells, in the
+    mesh's order (several arrays of a kind add up). The node-pair pattern and the
+    bincount scatter are :func:`assemble_stiffness`'s: no COO triple larger than the
+    blocks themselves.
+    """
+    n_nodes = mesh.n_points
+    kinds = [k for k in mesh.cells if blocks.get(k)]
+    if not kinds:
+        return sp.csr_matrix((mesh.n_dofs, mesh.n_dofs))
+    keys = np.concatenate(
+        [(mesh.cells[k][:, :, None] * n_nodes + mesh.cells[k][:, None, :]).ravel() for k in kinds]
+    )
+    pairs, inverse = np.unique(keys, return_inverse=True)
+    del keys
+    inverse = inverse.ravel()
+    flat = (inverse[:, None] * 9 + np.arange(9)).ravel()
+    total = np.zeros(len(pairs) * 9)
+    values = np.concatenate([sum(blocks[k]).reshape(-1) for k in kinds])
+    total += np.bincount(flat, values, minlength=total.size)
+    rows = pairs // n_nodes
+    indptr = np.zeros(n_nodes + 1, dtype=np.int64)
+    np.cumsum(np.bincount(rows, minlength=n_nodes), out=indptr[1:])
+    bsr = sp.bsr_matrix(
+        (total.reshape(-1, 3, 3), pairs % n_nodes, indptr), shape=(mesh.n_dofs, mesh.n_dofs)
+    )
     return bsr.tocsr()

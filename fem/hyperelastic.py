@@ -33,6 +33,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
+from .assembly import assemble_blocks
 from .dofs import element_dofs
 from .elements import ELEMENTS
 from .errors import MaterialError
@@ -140,8 +141,8 @@ def _law_blocks(
     h = np.einsum("eqji,eqaj->eqai", fi, g)
     c1 = wdet * (mu[:, None] - lam[:, None] * ln)
     c2 = wdet * lam[:, None]
-    out = np.einsum("eq,eqbi,eqak->eabik", c1, h, h, optimize=True)
-    out += np.einsum("eq,eqai,eqbk->eabik", c2, h, h, optimize=True)
+    out = _pair_sum(c2, h)
+    out += _pair_sum(c1, h).swapaxes(-1, -2)
     gg = np.einsum("eq,eqaj,eqbj->eab", wdet * mu[:, None], g, g, optimize=True)
     if material:
         sg = np.einsum("eqjl,eqbl->eqbj", fi @ p, g)
@@ -165,8 +166,19 @@ def _volume_terms(
     dv = np.einsum("eq,eqai->eai", wj, fig)
     if not hessian:
         return dv, None
-    h = np.einsum("eq,eqai,eqbk->eabik", wj, fig, fig, optimize=True)
+    h = _pair_sum(wj, fig)
     return dv, h - h.swapaxes(-1, -2)
+
+
+def _pair_sum(c: NDArray, v: NDArray) -> NDArray:
+    """``sum_q c_q v_q,a,i v_q,b,k`` as blocks ``(M, n, n, 3, 3)``, by batched products.
+
+    ``c (M, q)``, ``v (M, q, n, 3)``; no temporary larger than the result.
+    """
+    m, q, n, _ = v.shape
+    flat = v.reshape(m, q, 3 * n)
+    out = np.matmul(flat.swapaxes(1, 2), c[:, :, None] * flat)  # (M, (a,i), (b,k))
+    return out.reshape(m, n, 3, n, 3).transpose(0, 1, 3, 2, 4)
 
 
 def finite_strain(
@@ -204,7 +216,7 @@ def finite_strain(
     n = mesh.n_points
     force = np.zeros((n, 3))
     energy = 0.0
-    rows, cols, vals = [], [], []
+    blocks: dict[str, list[NDArray]] = {}
     # the averaged volumetric groups: (rows of D, dv/dx entries, kappa V, v)
     d_rows, d_cols, d_vals = [], [], []
     group_v, group_vol, group_kv = [], [], []
@@ -248,10 +260,7 @@ def finite_strain(
                 kb = _group_slope(dvol, vol0, kappa)[:, None, None, None, None] * h
         if stiffness:
             kb = kb + _law_blocks(g, wdet, fi, p, jm1, lam - kappa, mu, tangent == "material")
-            ke = kb.transpose(0, 1, 3, 2, 4).reshape(len(conn), dofs.shape[1], dofs.shape[1])
-            rows.append(np.repeat(dofs, dofs.shape[1], axis=1).ravel())
-            cols.append(np.tile(dofs, dofs.shape[1]).ravel())
-            vals.append(ke.ravel())
+            blocks.setdefault(kind, []).append(kb)
     if tet_share is not None:
         conn, dv, h, dvol, vol0, kappa, dofs = tet_share
         vn = np.bincount(conn.ravel(), np.repeat(dvol / 4.0, 4), minlength=n)
@@ -274,10 +283,7 @@ def finite_strain(
             node_slope = np.zeros(n)
             node_slope[on] = slope
             ce = node_slope[conn].sum(axis=1) / 4.0
-            ke = (ce[:, None, None, None, None] * h).transpose(0, 1, 3, 2, 4).reshape(m, 12, 12)
-            rows.append(np.repeat(dofs, 12, axis=1).ravel())
-            cols.append(np.tile(dofs, 12).ravel())
-            vals.append(ke.ravel())
+            blocks.setdefault("tetra", []).append(ce[:, None, None, None, None] * h)
     flat = force.ravel()
     size = mesh.n_dofs
     k = sp.csr_matrix((size, size))
@@ -295,12 +301,8 @@ def finite_strain(
         if stiffness:
             curve = gk * gvol * (1.0 - ln) / (gvol + gv) ** 2  # d^2U / dv^2
             k = (dmat.T @ sp.diags(curve) @ dmat).tocsr()
-    if stiffness and rows:
-        k = k + sp.csr_matrix(
-            (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-            shape=(size, size),
-        )
-        k = k.tocsr()
+    if stiffness and blocks:
+        k = (k + assemble_blocks(mesh, blocks)).tocsr()
         k.sum_duplicates()
     return FiniteStrain(energy, flat, k)
 

@@ -26,6 +26,8 @@ anchors in every step, and force-driven planes are placed by every step's solve.
 
 from __future__ import annotations
 
+import gc
+import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
@@ -138,6 +140,9 @@ class FiniteFrame:
         the step limit with the last residual).
     residual : float
         The last forces out of balance over the forces' size.
+    timings : dict of str to float
+        Seconds in linearising (the tangents' assembly), in the linear frames, and in
+        checking the steps (residuals, cells turned inside out).
     """
 
     result: FrameResult
@@ -146,6 +151,7 @@ class FiniteFrame:
     converged: bool
     stop_reason: str
     residual: float
+    timings: dict[str, float] = field(default_factory=dict)
 
 
 def solve_finite_frame(
@@ -188,8 +194,16 @@ def solve_finite_frame(
     res, residual, stop = None, np.inf, "iteration limit"
     springs: dict[str, sp.csr_matrix] = {}
     history: list[tuple[NDArray, NDArray]] = []
+    lin: dict[str, ElasticBody] = {}
+    clock = {"linearise": 0.0, "linear frames": 0.0, "checks": 0.0}
     for step in range(1, max_steps + 1):
+        # the last step's bodies and their factorisations go before the next are made
+        lin = now = paired = None  # type: ignore[assignment]
+        gc.collect()
+        t0 = time.perf_counter()
         lin = {b.name: b.linearised(u[b.name], springs.get(b.name)) for b in finite}
+        t1 = time.perf_counter()
+        clock["linearise"] += t1 - t0
         now = [lin.get(b.name, b) for b in bodies]
         paired = [
             replace(p, slave=lin.get(p.slave.name, p.slave),
@@ -201,6 +215,9 @@ def solve_finite_frame(
         except fem.SolverError as exc:
             stop = f"a finite body's tangent could not be factored at this strain: {exc}"
             break
+        finally:
+            t2 = time.perf_counter()
+            clock["linear frames"] += t2 - t1
         springs = {b.name: _springs(b, res, lin[b.name]) for b in finite}
         if not res.converged:
             stop = res.stop_reason
@@ -218,14 +235,15 @@ def solve_finite_frame(
         residual = max(
             (_residual(b, u[b.name], res.contact_force[b.name]) for b in finite), default=0.0
         )
+        clock["checks"] += time.perf_counter() - t2
         if max(moves.values(), default=0.0) <= STEP_TOL and residual <= RESIDUAL:
             stop = "converged"
-            return FiniteFrame(res, _all(bodies, u, res), step, True, stop, residual)
+            return FiniteFrame(res, _all(bodies, u, res), step, True, stop, residual, clock)
     if res is None:
         raise ContactError(stop)
     if stop == "iteration limit":
         stop = f"Newton did not converge in {max_steps} steps (residual {residual:.2g})"
-    return FiniteFrame(res, _all(bodies, u, res), step, False, stop, residual)
+    return FiniteFrame(res, _all(bodies, u, res), step, False, stop, residual, clock)
 
 
 def _springs(body: FiniteBody, res: FrameResult, lin: ElasticBody) -> sp.csr_matrix:
