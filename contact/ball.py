@@ -17,13 +17,14 @@ import os
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 import fem
 
-from .errors import BallError
+from .errors import BallError, ObjectError
 
 __all__ = [
     "LOCKING_NOTE",
@@ -361,14 +362,23 @@ def _check_file(mesh: fem.Mesh, spec: BallSpec, path: Path) -> None:
 
 def _read_file(path: Path) -> fem.Mesh:
     """The ball's volume mesh from a file; a closed surface is filled with tetrahedra."""
-    try:
-        return fem.read_mesh(path)
-    except fem.NoVolumeCellsError as exc:
-        if not exc.surface:
-            raise
+    from .objects.formats import SURFACE_FORMATS, read_surface_file
+
+    surface: Any = path
+    if path.suffix.lower() in SURFACE_FORMATS:  # read and checked here, not by meshio or VTK
+        try:
+            surface = read_surface_file(path, f"ball.mesh = '{path}': ")
+        except ObjectError as exc:
+            raise BallError(str(exc)) from None
+    else:
+        try:
+            return fem.read_mesh(path)
+        except fem.NoVolumeCellsError as exc:
+            if not exc.surface:
+                raise
     log.info("ball.mesh = '%s' is a surface: tetrahedralised at its mean edge length", path)
     try:
-        return fem.tetrahedralize(path, None)
+        return fem.tetrahedralize(surface, None)
     except fem.MeshError as exc:
         raise BallError(f"ball.mesh = '{path}' is a surface that cannot be filled: {exc}") from None
 
