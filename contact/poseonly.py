@@ -151,10 +151,10 @@ def pose_only(
         directory = Path(os.path.abspath(out if out is not None else f"{default}_pose"))
         stage = make_staging(directory, "pose")
     except OutputError as exc:
-        print(f"error: {scene_path}: {exc}", file=sys.stderr)
+        print(f"error: {exc}", file=sys.stderr)
         return 2 if isinstance(exc, TargetError) else 4
-    except (ContactError, ValueError, OSError) as exc:
-        print(f"error: {scene_path}: {exc}", file=sys.stderr)
+    except (ContactError, ValueError, OSError) as exc:  # the scene's errors name its file
+        print(f"error: {exc}", file=sys.stderr)
         return 2
     staging = stage.path
     try:
