@@ -60,7 +60,7 @@ def verdict(result: FrameResult) -> dict[str, Any]:
         ``{"realistic": bool, "reason": str}``; the reason names every bone over its
         limit with its force and limit, else the stop reason of a solve that did not
         converge, else ``"converged; every bone under its limit"`` (with ``"held"`` where a
-        free body is held).
+        free body is held; without the bones where the scene has none).
     """
     if result.over_limit:
         parts = [
@@ -70,9 +70,10 @@ def verdict(result: FrameResult) -> dict[str, Any]:
         return {"realistic": False, "reason": "; ".join(parts)}
     if not result.converged:
         return {"realistic": False, "reason": f"not converged: {result.stop_reason}"}
-    if result.held:
-        return {"realistic": True, "reason": "converged; held; every bone under its limit"}
-    return {"realistic": True, "reason": "converged; every bone under its limit"}
+    parts = ["converged"] + (["held"] if result.held else [])
+    if any(result.support_forces.values()):
+        parts.append("every bone under its limit")
+    return {"realistic": True, "reason": "; ".join(parts)}
 
 
 def grip_force(result: FrameResult, hand: str | None) -> float:

@@ -472,3 +472,12 @@ def test_hand_picture_without_rendering_is_a_clear_error(monkeypatch, tmp_path):
     with pytest.raises(ContactError, match=r"cannot render .*hand\.png: no OpenGL"):
         render_hand(tmp_path / "hand.png", {})
     assert not (tmp_path / "hand.png").exists()
+
+
+def test_verdict_of_a_scene_without_bones_says_nothing_of_bones():
+    from types import SimpleNamespace
+
+    frame = SimpleNamespace(over_limit={}, converged=True, held=True, support_forces={})
+    assert verdict(frame) == {"realistic": True, "reason": "converged; held"}
+    frame = SimpleNamespace(over_limit={}, converged=True, held=None, support_forces={"b": {}})
+    assert verdict(frame) == {"realistic": True, "reason": "converged"}
