@@ -15,9 +15,9 @@ For every frame, after Gourret, Magnenat-Thalmann and Thalmann (1989, Fig. 9):
 once per scene (again only when its placement turns it), the hand once per pose, the previous pose
 warm-starts the next, and friction's stick anchors of the last frame solved are where the
 next frame's slip is measured from. Frames must therefore be solved in time order when
-the scene has friction. At the scene's start it warns of an object placed inside the
-skin, a plane or another object (:func:`contact.startchecks.warn_overlaps`). Writing
-the results is the caller's (:mod:`contact.grasp`).
+the scene has friction. At the scene's start it refuses an object placed deep inside the
+skin, a plane or another object, and warns of a shallow overlap
+(:func:`contact.startchecks.check_overlaps`). Writing the results is the caller's.
 """
 
 from __future__ import annotations
@@ -52,7 +52,7 @@ from .solver.body import ElasticBody
 from .solver.iteration import solve_frame
 from .solver.pairs import ContactPair
 from .solver.results import FrameResult, IterationRecord
-from .startchecks import check_bones, warn_overlaps
+from .startchecks import check_bones, check_overlaps
 
 __all__ = ["GraspRun"]
 
@@ -461,7 +461,7 @@ class GraspRun:
         settings = sc.solver.settings(self.limits)
         if not self._started:
             self._started = True
-            warn_overlaps(t, bodies, sc.planes, settings.gap_tolerance)
+            check_overlaps(t, bodies, sc.planes, settings.gap_tolerance)
         result = solve_frame(
             bodies, pairs, planes, settings, callback=callback, anchors=self.anchors
         )

@@ -1,4 +1,4 @@
-"""A scene's start: an object inside a bone is refused, one inside the skin or a plane warned of."""
+"""A scene's start: an object inside a bone or deep in a body refused, a small overlap warned of."""
 
 from __future__ import annotations
 
@@ -6,6 +6,7 @@ import logging
 from collections.abc import Sequence
 
 import numpy as np
+from numpy.typing import NDArray
 
 from .errors import InputError
 from .geometry.plane import Plane
@@ -16,9 +17,13 @@ from .scene.model import PlaneScene
 from .solver.body import ElasticBody
 from .solver.pairs import ContactPair, measure
 
-__all__ = ["check_bones", "warn_overlaps"]
+__all__ = ["OVERLAP_REFUSED", "check_bones", "check_overlaps", "smallest_extent"]
 
 log = logging.getLogger(__name__)
+
+#: The deepest start-up overlap allowed, as a fraction of the smallest extent of the
+#: object (the smaller of two objects): past it the object is misplaced, not pressed.
+OVERLAP_REFUSED = 0.1
 
 
 def check_bones(hand: Hand, pose: Pose, objects: Sequence[ElasticBody], t: float) -> None:
@@ -54,16 +59,32 @@ def check_bones(hand: Hand, pose: Pose, objects: Sequence[ElasticBody], t: float
                 )
 
 
-def warn_overlaps(
+def smallest_extent(points: NDArray[np.float64]) -> float:
+    """A body's extent across its thinnest direction (m): along its least principal axis."""
+    x = np.asarray(points, dtype=np.float64)
+    x = x - x.mean(axis=0)
+    _, axes = np.linalg.eigh(x.T @ x)
+    return float(np.ptp(x @ axes[:, 0]))
+
+
+def check_overlaps(
     t: float, bodies: Sequence[ElasticBody], planes: Sequence[PlaneScene], tolerance: float
 ) -> None:
-    """Warn where an object starts inside the skin, a plane or another object, too deep.
+    """Refuse an object that starts deep inside another body; warn where it starts inside.
 
     Called at the scene's start (the first frame solved), before any contact solve: the
     hand as posed there, the planes at their scene positions (their motion is how a scene
-    presses, not a misplaced ball). A node deeper than ``tolerance`` times its element
+    presses, not a misplaced ball). An overlap deeper than :data:`OVERLAP_REFUSED` times
+    the smallest extent of an object of its pair (:func:`smallest_extent`; for a ball its
+    diameter) is no contact to resolve but a misplaced object: refused, naming the pair,
+    the depth and the limit. Below that, a node deeper than ``tolerance`` times its element
     size (``solver.gap_tolerance``) gives one log line for its pair, naming the deepest
     node and its depth.
+
+    Raises
+    ------
+    InputError
+        The pair overlapping deepest for its object's size, past the limit.
     """
     at_rest = [Plane(p.point, p.normal, name=p.name) for p in planes]
     objects = [b for b in bodies if b.name != "hand"]
@@ -72,11 +93,30 @@ def warn_overlaps(
     for i, o in enumerate(objects):
         for other in objects[i + 1 :] + hand:
             pairs += [ContactPair(o, other), ContactPair(other, o)]
+    size = {o.name: smallest_extent(o.mesh.points) for o in objects}
     u = {b.name: np.zeros((b.mesh.n_points, 3)) for b in bodies}
+    found = []
     for pair in pairs:
         p, _ = measure(pair, u, 0.0)
-        if not p.nodes.size:
-            continue
+        if p.nodes.size:
+            found.append((pair, p))
+    worst = None
+    for pair, p in found:
+        k = int(np.argmin(p.gap))
+        obj = min((n for n in (pair.slave.name, pair.master.name) if n in size), key=size.get)
+        limit = OVERLAP_REFUSED * size[obj]
+        if -p.gap[k] > limit and (worst is None or -p.gap[k] / limit > worst[0]):
+            worst = (-float(p.gap[k]) / limit, pair, int(p.nodes[k]), -float(p.gap[k]), obj)
+    if worst is not None:
+        _, pair, node, depth, obj = worst
+        what = "the ball" if obj == "ball" else f"object {obj!r}"
+        raise InputError(
+            f"frame t = {t:g}: {pair.name} overlap at the start: node {node} of "
+            f"{pair.slave.name} is {depth * 1e3:.3g} mm inside {pair.master.name}, deeper "
+            f"than {100 * OVERLAP_REFUSED:g} % of the smallest extent of {what} "
+            f"({OVERLAP_REFUSED * size[obj] * 1e3:.3g} mm): place them apart"
+        )
+    for pair, p in found:
         local = np.sqrt(np.maximum(pair.slave.node_areas[p.nodes], 1e-300))
         k = int(np.argmax(-p.gap / local))
         if -p.gap[k] <= tolerance * local[k]:

@@ -48,6 +48,7 @@ from .model import (
     SolverScene,
 )
 from .objects import read_objects
+from .plausible import warn_friction
 from .read_hand import read_auto_flexion, read_follow, read_hand
 from .spec import Scene
 
@@ -424,7 +425,7 @@ def load_scene(path: str | os.PathLike) -> Scene:
     objects = read_objects(r, data, base, skeleton, tuple(p.name for p in planes))
     solver = _read_solver(r, data)
     output = _read_output(r, data)
-    return r.build(
+    scene = r.build(
         "",
         Scene,
         path=p.resolve(),
@@ -441,3 +442,5 @@ def load_scene(path: str | os.PathLike) -> Scene:
         objects=objects,
         ball_friction=ball_friction,
     )
+    warn_friction(scene, source)
+    return scene
