@@ -10,6 +10,9 @@ Every frame of a run is drawn with the same cameras, so that frames compare:
   ball to the palm), from the side of :data:`DEFAULT_VIEW` and a little from the ball's
   side (:data:`_TILT`), so that the ball, the hand around it and the gap between them
   show; looking down :data:`DEFAULT_VIEW` would show the back of the hand over the ball;
+  and where the other bodies hide the ball's contacts from there (a pinch seen from the
+  back of the index), it turns to the direction nearest it from which they are seen
+  (:func:`clear_direction`);
 - each body's own view looks at the body's part inside the focus box from the side of the
   other bodies (from the ball onto the hand's palmar skin), where its contacts and their
   stress are; the held body's (the ball's) view, which carries the force arrows, looks
@@ -19,20 +22,25 @@ Every frame of a run is drawn with the same cameras, so that frames compare:
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
+log = logging.getLogger(__name__)
+
 __all__ = [
     "DEFAULT_VIEW",
     "View",
     "body_views",
+    "clear_direction",
     "focus_box",
     "grasp_axis",
     "held_view",
     "main_view",
+    "visible",
 ]
 
 #: Main camera when none is given: the direction from the focus to the eye, and view up:
@@ -108,10 +116,96 @@ def _up(direction: NDArray[np.float64]) -> tuple[float, float, float]:
     return (0.0, 1.0, 0.0) if abs(float(direction @ z)) > 0.95 else (0.0, 0.0, 1.0)
 
 
+#: Directions the main view may take to see the held body's contacts (a Fibonacci
+#: sphere), and how many of them at most are tested against each frame.
+_DIRECTIONS = 64
+_SAMPLE = 60
+#: A contact point is hidden by a surface nearer the eye by more than this fraction of
+#: the focus box (the touching surface itself does not hide it).
+_DEPTH = 0.03
+#: Directions whose share of contacts seen is within this of the best are equal: the one
+#: nearest the grasp-axis view is taken.
+_EQUAL = 0.05
+
+
+def visible(
+    points: NDArray[np.float64], direction: NDArray[np.float64], triangles: NDArray[np.float64],
+    depth: float = 0.0,
+) -> NDArray[np.bool_]:
+    """Which ``points (k, 3)`` no triangle ``(t, 3, 3)`` hides, seen from along ``direction``.
+
+    An orthographic view (the main view's eye is three box sizes away): a point is hidden
+    where a triangle covers its projection nearer the eye by more than ``depth``.
+    """
+    d = np.asarray(direction, dtype=np.float64)
+    d = d / np.linalg.norm(d)
+    e1 = np.cross(d, [1.0, 0.0, 0.0] if abs(d[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(d, e1)
+    basis = np.stack([e1, e2], axis=1)
+    if not len(points) or not len(triangles):
+        return np.ones(len(points), dtype=bool)
+    p, z = points @ basis, points @ d  # (k, 2), (k,)
+    t, tz = triangles @ basis, triangles @ d  # (t, 3, 2), (t, 3)
+    a, b, c = t[:, 0], t[:, 1], t[:, 2]
+    area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    ok = np.abs(area) > 1e-30
+    a, b, c, tz, area = a[ok], b[ok], c[ok], tz[ok], area[ok]
+
+    def edge(u, v):  # (k, t): twice the signed area of (u, v, p) over the triangle's
+        return ((v[:, 0] - u[:, 0])[None] * (p[:, 1, None] - u[:, 1][None])
+                - (v[:, 1] - u[:, 1])[None] * (p[:, 0, None] - u[:, 0][None])) / area[None]
+
+    w0, w1, w2 = edge(b, c), edge(c, a), edge(a, b)
+    inside = (w0 >= 0) & (w1 >= 0) & (w2 >= 0)
+    front = w0 * tz[None, :, 0] + w1 * tz[None, :, 1] + w2 * tz[None, :, 2] > z[:, None] + depth
+    return ~(inside & front).any(axis=1)
+
+
+def clear_direction(
+    contacts: Sequence[NDArray[np.float64]],
+    occluders: Sequence[NDArray[np.float64]],
+    preferred: NDArray[np.float64],
+    span: float,
+) -> NDArray[np.float64]:
+    """The direction (to the eye) from which most of the held body's contacts are seen.
+
+    ``contacts[i]`` and ``occluders[i]`` are frame ``i``'s contact points ``(k, 3)`` and
+    the other bodies' surface triangles ``(t, 3, 3)``; each direction of a Fibonacci
+    sphere is scored by the share of every frame's contacts it sees, and of those within
+    :data:`_EQUAL` of the best the one nearest ``preferred`` is taken.
+    """
+    pairs = [(c, o) for c, o in zip(contacts, occluders, strict=True) if len(c)]
+    if not pairs:
+        return preferred
+    rng = np.random.default_rng(0)
+    pairs = [
+        (c[rng.choice(len(c), _SAMPLE, replace=False)] if len(c) > _SAMPLE else c, o)
+        for c, o in pairs
+    ]
+    i = np.arange(_DIRECTIONS) + 0.5
+    polar = np.arccos(1 - 2 * i / _DIRECTIONS)
+    turn = np.pi * (1 + 5**0.5) * i
+    dirs = np.column_stack(
+        [np.cos(turn) * np.sin(polar), np.sin(turn) * np.sin(polar), np.cos(polar)]
+    )
+    dirs = np.vstack([preferred / np.linalg.norm(preferred), dirs])
+    score = np.array([
+        np.mean([visible(c, d, o, _DEPTH * span).mean() for c, o in pairs]) for d in dirs
+    ])  # fmt: skip
+    near = dirs @ (preferred / np.linalg.norm(preferred))
+    good = score >= score.max() - _EQUAL
+    best = np.flatnonzero(good)[np.argmax(near[good])]
+    log.debug("main view: %.0f %% of the contacts seen (%.0f %% from the grasp-axis view)",
+              100 * score[best], 100 * score[0])
+    return dirs[best]
+
+
 def main_view(
     box: NDArray[np.float64],
     camera: tuple | None = None,
     axis: NDArray[np.float64] | None = None,
+    sight: tuple | None = None,
 ) -> View:
     """The main view of the focus box, fitted to it.
 
@@ -123,6 +217,10 @@ def main_view(
         pyvista camera position ``(position, focal point, view up)``: its direction kept.
     axis : ndarray (3,), optional
         The grasp axis (:func:`grasp_axis`): without a camera, the view looks across it.
+    sight : (contacts, occluders), optional
+        Without a camera, the held body's contact points and the other bodies' triangles
+        per frame (:func:`clear_direction`): the view turns, as little as it may, to
+        where the contacts are seen rather than the back of a finger.
 
     Returns
     -------
@@ -141,7 +239,9 @@ def main_view(
             if np.linalg.norm(across) < 0.1:  # looking along the axis: turn to x
                 across = np.array([1.0, 0.0, 0.0]) - axis[0] * axis
             d = across / np.linalg.norm(across) - _TILT * axis
-            up = np.asarray(_up(d / np.linalg.norm(d)))
+        if sight is not None:
+            d = clear_direction(sight[0], sight[1], d / np.linalg.norm(d), span)
+        up = np.asarray(_up(d / np.linalg.norm(d)))
     d = d / (np.linalg.norm(d) or 1.0)
     return View(tuple(centre + 3 * span * d), tuple(centre), tuple(map(float, up)), _flat(box))
 

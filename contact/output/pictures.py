@@ -302,10 +302,14 @@ def _render_all(
     per_body = [[b.points for p in pictures for b in p.bodies if b.name == n] for n in names]
     contacts = [b.contact for p in pictures for b in p.bodies]
     box = focus_box(per_body, contacts)
-    main = main_view(box, camera, grasp_axis(per_body, box))
-    views = dict(zip(names, body_views(per_body, box), strict=True)) if len(names) > 1 else {}
     sizes = [float(np.linalg.norm(np.ptp(np.concatenate(p), axis=0))) for p in per_body]
     held = names[int(np.argmin(sizes))]
+    sight = (
+        [b.contact for p in pictures for b in p.bodies if b.name == held],
+        [_triangles([b.surface for b in p.bodies if b.name != held], box) for p in pictures],
+    )
+    main = main_view(box, camera, grasp_axis(per_body, box), sight)
+    views = dict(zip(names, body_views(per_body, box), strict=True)) if len(names) > 1 else {}
     if views:  # the held body's forces seen side on, as the main view sees them
         views[held] = held_view(main, per_body[int(np.argmin(sizes))], 0.45)
     bars = _bars(pictures)
@@ -320,6 +324,24 @@ def _render_all(
             image = _shoot_status(window_size, pic, main, dot)
             write_atomic(folder / f"status_{pic.index:04d}.png", rendering.png_bytes(image))
     log.info("%d pictures rendered", len(pictures))
+
+
+def _triangles(surfaces: Sequence[pyvista.PolyData], box: NDArray[np.float64]) -> NDArray:
+    """The surfaces' triangles ``(t, 3, 3)`` between the focus box and the main view's eye.
+
+    Those with a corner within the eye's distance (three box sizes) of the box's centre:
+    a finger outside the box may stand in front of it.
+    """
+    centre = box.mean(axis=0)
+    reach = 3.0 * float((box[1] - box[0]).max())
+    out = [np.zeros((0, 3, 3))]
+    for surface in surfaces:
+        tri = surface.triangulate()
+        faces = np.asarray(tri.faces).reshape(-1, 4)[:, 1:]
+        corners = np.asarray(tri.points)[faces]
+        near = (np.linalg.norm(corners - centre, axis=2) <= reach).any(axis=1)
+        out.append(corners[near])
+    return np.concatenate(out)
 
 
 def _plotter(window_size: tuple[int, int], n_views: int) -> pyvista.Plotter:
