@@ -70,16 +70,18 @@ def smallest_extent(points: NDArray[np.float64]) -> float:
 def check_overlaps(
     t: float, bodies: Sequence[ElasticBody], planes: Sequence[PlaneScene], tolerance: float
 ) -> None:
-    """Refuse an object that starts deep inside another body; warn where it starts inside.
+    """Refuse an object that starts deep in a plane or an object; warn where it starts inside.
 
     Called at the scene's start (the first frame solved), before any contact solve: the
     hand as posed there, the planes at their scene positions (their motion is how a scene
-    presses, not a misplaced ball). An overlap deeper than :data:`OVERLAP_REFUSED` times
-    the smallest extent of an object of its pair (:func:`smallest_extent`; for a ball its
-    diameter) is no contact to resolve but a misplaced object: refused, naming the pair,
-    the depth and the limit. Below that, a node deeper than ``tolerance`` times its element
-    size (``solver.gap_tolerance``) gives one log line for its pair, naming the deepest
-    node and its depth.
+    presses, not a misplaced ball). An object deeper in a plane or another object than
+    :data:`OVERLAP_REFUSED` times the smaller object's smallest extent
+    (:func:`smallest_extent`; a ball's diameter) is misplaced, not pressed: refused,
+    naming the pair, the depth and the limit. The hand is posed into an object by its
+    keyframes and automatic flexions to press it, however deep (:func:`check_bones` is its
+    limit). Otherwise a node deeper than ``tolerance`` times its element size
+    (``solver.gap_tolerance``) gives one log line for its pair, naming the deepest node
+    and its depth.
 
     Raises
     ------
@@ -102,6 +104,8 @@ def check_overlaps(
             found.append((pair, p))
     worst = None
     for pair, p in found:
+        if "hand" in (pair.slave.name, pair.master.name):
+            continue  # posed into an object is how a hand presses: its bones are the limit
         k = int(np.argmin(p.gap))
         obj = min((n for n in (pair.slave.name, pair.master.name) if n in size), key=size.get)
         limit = OVERLAP_REFUSED * size[obj]

@@ -3,7 +3,7 @@
 A friction coefficient above 2 (skin on common materials measures 0.2 to 2) is one
 ``WARNING:`` line naming its key; an object that starts inside a plane deeper than 10 % of
 its smallest extent is bad input (exit status 2, one line naming the pair and the depth,
-nothing written), a shallower overlap stays a warning.
+nothing written), a shallower overlap stays a warning, as does the hand posed into it.
 """
 
 from __future__ import annotations
@@ -15,10 +15,12 @@ import numpy as np
 import pytest
 
 import fem
+from contact.errors import InputError
 from contact.grasp import main
 from contact.scene import load_scene
 from contact.scene.plausible import MAX_FRICTION, friction_keys
-from contact.startchecks import OVERLAP_REFUSED, smallest_extent
+from contact.solver.body import ElasticBody
+from contact.startchecks import OVERLAP_REFUSED, check_overlaps, smallest_extent
 from tests.helpers import plates_scene
 
 
@@ -82,3 +84,25 @@ def test_the_smallest_extent_is_across_the_thinnest_direction():
     turn, _ = np.linalg.qr(np.random.default_rng(0).normal(size=(3, 3)))
     assert smallest_extent(box @ turn.T) == pytest.approx(0.004, rel=1e-9)
     assert OVERLAP_REFUSED == 0.1
+
+
+def _box(name: str, size: tuple[float, float, float], z: float) -> ElasticBody:
+    mesh = fem.box_mesh(size, (4, 4, 2))
+    mesh = fem.Mesh(mesh.points + np.array([0.0, 0.0, z]), mesh.cells, mesh.regions)
+    return ElasticBody(name, mesh, fem.LinearElastic(1.0e6, 0.3))
+
+
+def test_two_objects_deep_in_each_other_are_refused_the_hand_posed_into_one_is_not(caplog):
+    # a 10 mm block 3 mm into a slab: past 10 % of the thinner's extent (1 mm)
+    block = _box("block", (0.04, 0.04, 0.01), 0.0)
+    with pytest.raises(InputError, match=(
+        r"^frame t = 0: block/slab overlap at the start: node \d+ of block is 3 mm inside "
+        r"slab, deeper than 10 % of the smallest extent of object 'block' \(1 mm\): place "
+        r"them apart$"
+    )):  # fmt: skip
+        check_overlaps(0.0, [block, _box("slab", (0.04, 0.04, 0.02), 0.007)], [], 1e-3)
+    # the hand 5 mm into it: posed to press it, warned of only
+    with caplog.at_level(logging.WARNING, logger="contact.startchecks"):
+        check_overlaps(0.0, [block, _box("hand", (0.04, 0.04, 0.02), 0.005)], [], 1e-3)
+    said = warnings_of(caplog)
+    assert len(said) == 2 and " of block is 5 mm inside hand " in said[0]
