@@ -64,7 +64,15 @@ from .scene.read import load_scene
 from .solver.body import ElasticBody
 from .solver.results import FrameResult, IterationRecord
 
-__all__ = ["EXIT_STATUS", "GraspRun", "main", "run"]
+__all__ = [
+    "EXIT_STATUS",
+    "GraspRun",
+    "Terminated",
+    "catch_sigterm",
+    "internal_error",
+    "main",
+    "run",
+]
 
 log = logging.getLogger(__name__)
 
@@ -84,7 +92,7 @@ EXIT_STATUS = (
 _FAILED_LINES = 5
 
 
-class _Terminated(BaseException):
+class Terminated(BaseException):
     """SIGTERM, raised where the run is, so that it unwinds as Ctrl-C does."""
 
 
@@ -94,9 +102,9 @@ _SIGNALLED: list[int] = []
 
 
 def _check_terminated() -> None:
-    """Raise :class:`_Terminated` where a SIGTERM came and its exception was swallowed."""
+    """Raise :class:`Terminated` where a SIGTERM came and its exception was swallowed."""
     if _SIGNALLED:
-        raise _Terminated
+        raise Terminated
 
 
 def _version() -> str:
@@ -416,7 +424,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     # line on stderr like the log's, not a source line and a traceback-like location
     shown = warnings.showwarning
     warnings.showwarning = _warn_line
-    term = _catch_sigterm()
+    term = catch_sigterm()
     try:
         if args.pose_only and args.least_grip:
             print("error: --least-grip solves the scene: it takes no --pose-only", file=sys.stderr)
@@ -431,23 +439,23 @@ def main(argv: Sequence[str] | None = None) -> int:
             quiet=args.quiet,
             least=args.least_grip,
         )
-    except (KeyboardInterrupt, _Terminated) as exc:
+    except (KeyboardInterrupt, Terminated) as exc:
         print("interrupted; the previous results are untouched", file=sys.stderr)
-        return 143 if isinstance(exc, _Terminated) else 130
+        return 143 if isinstance(exc, Terminated) else 130
     except Exception as exc:
-        return _internal_error(exc)
+        return internal_error(exc)
     finally:
         if term is not None:
             signal.signal(signal.SIGTERM, term)  # type: ignore[arg-type]
         warnings.showwarning = shown
 
 
-def _catch_sigterm() -> object:
-    """Make SIGTERM raise :class:`_Terminated`; the handler before, or None (not main thread)."""
+def catch_sigterm() -> object:
+    """Make SIGTERM raise :class:`Terminated`; the handler before, or None (not main thread)."""
 
     def handler(signum: int, frame: object) -> None:
         _SIGNALLED.append(signum)
-        raise _Terminated
+        raise Terminated
 
     _SIGNALLED.clear()
     try:
@@ -456,7 +464,7 @@ def _catch_sigterm() -> object:
         return None
 
 
-def _internal_error(exc: Exception) -> int:
+def internal_error(exc: Exception) -> int:
     """Write the traceback to a log file; one line on stderr naming both; exit status 3."""
     text = traceback.format_exc()
     what = (str(exc).splitlines() or [""])[0][:300]

@@ -37,11 +37,8 @@ NOT_SOLVED_KEYS = ("not_solved", "t", "why")
 
 
 def lost(result: FrameResult) -> bool:
-    """Whether the frame lost a free body: not held by its contacts (``held`` False).
-
-    A stand-in result without ``held`` (a test's stub solve) lost nothing.
-    """
-    return getattr(result, "held", None) is False
+    """Whether the frame lost a free body: not held by its contacts (``held`` False)."""
+    return result.held is False
 
 
 def not_solved(

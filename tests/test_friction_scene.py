@@ -238,7 +238,8 @@ def _record(monkeypatch: pytest.MonkeyPatch) -> list[dict]:
         # a frame that stopped, the ball where it was: nothing to place anew
         u = {b.name: np.zeros((b.mesh.n_points, 3)) for b in bodies}
         return SimpleNamespace(
-            timings={}, anchors=token, converged=False, stop_reason="", displacement=u
+            timings={}, anchors=token, converged=False, stop_reason="", displacement=u,
+            held=None,
         )
 
     monkeypatch.setattr(contact.run, "solve_frame", fake)
