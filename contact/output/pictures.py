@@ -400,7 +400,9 @@ def _shoot(
                 title = f"{body.name} alone: the forces on it"
             else:
                 title = f"{body.name}, seen from the {held}"
-            plotter.add_text(title, font_size=9, color="black")
+            label = plotter.add_text(title, font_size=9, color="black").GetTextProperty()
+            label.SetBackgroundColor(1.0, 1.0, 1.0)  # readable over a dark body
+            label.SetBackgroundOpacity(0.75)
             _place(plotter, views[body.name], 1.2 if body.name == held else 1.0)
         return plotter.screenshot(return_img=True)
     finally:
