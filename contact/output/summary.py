@@ -89,9 +89,16 @@ def grip_force(result: FrameResult, hand: str | None) -> float:
     Returns
     -------
     float
-        The sum of the magnitudes of those contacts' normal forces (>= 0); for a ball
+        With a hand, the sum of its skin nodes' normal forces (``contact_fields``): the
+        sum of the forces per part, so that the grip and the fingers are one sum (the
+        rows' own forces, counted both ways across the skin, add up to about 1 % more
+        where a node meets the ball as a slave and as a master's corner). Without, the
+        sum of the magnitudes of the planes' contacts' normal forces (>= 0); for a ball
         squeezed between two plates, twice the squeeze.
     """
+    fields = result.contact_fields.get(hand) if hand is not None else None
+    if fields is not None and "normal_force" in fields:
+        return float(np.sum(fields["normal_force"]))
     c = result.contacts
     if not c or not len(c.get("pair", ())):
         return 0.0
