@@ -17,7 +17,7 @@ from .forces import FrameForces
 if TYPE_CHECKING:
     import pyvista
 
-    from .pictures import BodyPicture, Picture
+    from .picturedata import BodyPicture, Picture
 
 __all__ = ["Bar", "draw_body", "draw_planes", "draw_pushes", "write_verdict"]
 

@@ -40,7 +40,6 @@ import os
 import shutil
 import uuid
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -53,10 +52,10 @@ from fem.stress import nodal_average
 
 from .. import rendering
 from .drawing import Bar, draw_body, draw_planes, draw_pushes, write_verdict
-from .forces import FrameForces
 from .framing import View, body_views, focus_box, grasp_axis, held_view, main_view
+from .picturedata import BodyPicture, Picture
 from .staging import write_atomic
-from .status import StatusMarkers, draw_status
+from .status import draw_status
 
 if TYPE_CHECKING:
     import pyvista
@@ -83,68 +82,6 @@ _ARROW = 0.45
 _CLIP = 0.25
 #: Diameter of a stick or slip dot, as a fraction of the picture's smaller side (pixels).
 _DOT = 1.0 / 60.0
-
-
-@dataclass
-class BodyPicture:
-    """A body as a frame's picture draws it.
-
-    Attributes
-    ----------
-    name : str
-    surface : pyvista.PolyData
-        The deformed outer surface, point data ``von_mises`` (Pa, nodal average).
-    top : float
-        The body's largest cell-average von Mises stress in the frame (Pa).
-    noise : float
-        Stress below which the body's stress is round-off (Pa).
-    contact : ndarray (k, 3)
-        Deformed positions of its nodes in contact.
-    points : ndarray (N, 3)
-        All its deformed nodal positions (for the framing).
-    """
-
-    name: str
-    surface: pyvista.PolyData
-    top: float
-    noise: float
-    contact: NDArray[np.float64]
-    points: NDArray[np.float64]
-
-
-@dataclass
-class Picture:
-    """What a frame's pictures need.
-
-    Attributes
-    ----------
-    index : int
-        Frame number (the ``NNNN`` of ``frame_NNNN.png``).
-    time : float
-        Frame time.
-    bodies : list of BodyPicture
-    planes : list of (str, ndarray (3,), ndarray (3,))
-        Name, a point and the unit normal of each plane at the frame.
-    forces : FrameForces
-        The pushes of the fingers and planes, the grip force.
-    verdict : dict
-        ``{"realistic": bool, "reason": str}`` of ``summary.json``.
-    converged : bool
-    stop_reason : str
-    status : StatusMarkers or None
-        The stick and slip contact nodes where the frame has friction (its
-        ``status_NNNN.png``), else None.
-    """
-
-    index: int
-    time: float
-    bodies: list[BodyPicture]
-    planes: list[tuple[str, NDArray[np.float64], NDArray[np.float64]]]
-    forces: FrameForces
-    verdict: dict = field(default_factory=lambda: {"realistic": True, "reason": ""})
-    converged: bool = True
-    stop_reason: str = "converged"
-    status: StatusMarkers | None = None
 
 
 def deformed_surface(

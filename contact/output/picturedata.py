@@ -1,0 +1,84 @@
+"""What a frame's pictures are drawn from: each body's surface and contacts, the frame's forces.
+
+The data both :mod:`contact.output.pictures` (which makes it and renders it) and
+:mod:`contact.output.drawing` (which draws its pieces) read: below both, so that neither
+imports the other.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .forces import FrameForces
+from .status import StatusMarkers
+
+if TYPE_CHECKING:
+    import pyvista
+
+__all__ = ["BodyPicture", "Picture"]
+
+
+@dataclass
+class BodyPicture:
+    """A body as a frame's picture draws it.
+
+    Attributes
+    ----------
+    name : str
+    surface : pyvista.PolyData
+        The deformed outer surface, point data ``von_mises`` (Pa, nodal average).
+    top : float
+        The body's largest cell-average von Mises stress in the frame (Pa).
+    noise : float
+        Stress below which the body's stress is round-off (Pa).
+    contact : ndarray (k, 3)
+        Deformed positions of its nodes in contact.
+    points : ndarray (N, 3)
+        All its deformed nodal positions (for the framing).
+    """
+
+    name: str
+    surface: pyvista.PolyData
+    top: float
+    noise: float
+    contact: NDArray[np.float64]
+    points: NDArray[np.float64]
+
+
+@dataclass
+class Picture:
+    """What a frame's pictures need.
+
+    Attributes
+    ----------
+    index : int
+        Frame number (the ``NNNN`` of ``frame_NNNN.png``).
+    time : float
+        Frame time.
+    bodies : list of BodyPicture
+    planes : list of (str, ndarray (3,), ndarray (3,))
+        Name, a point and the unit normal of each plane at the frame.
+    forces : FrameForces
+        The pushes of the fingers and planes, the grip force.
+    verdict : dict
+        ``{"realistic": bool, "reason": str}`` of ``summary.json``.
+    converged : bool
+    stop_reason : str
+    status : StatusMarkers or None
+        The stick and slip contact nodes where the frame has friction (its
+        ``status_NNNN.png``), else None.
+    """
+
+    index: int
+    time: float
+    bodies: list[BodyPicture]
+    planes: list[tuple[str, NDArray[np.float64], NDArray[np.float64]]]
+    forces: FrameForces
+    verdict: dict = field(default_factory=lambda: {"realistic": True, "reason": ""})
+    converged: bool = True
+    stop_reason: str = "converged"
+    status: StatusMarkers | None = None
