@@ -1,7 +1,7 @@
 """A run that loses its free body: it stops at the first frame not held.
 
-A free body that its contacts do not hold is where a soft spring left it at the end of
-that frame, not anywhere the scene put it: no later frame can start from a defined state.
+A free body that its contacts do not hold has no place at the end of that frame (statics
+says only that it goes), so no later frame can start from a defined state.
 So :func:`contact.grasp.run` stops at the first frame whose result is not held (exit
 status 1, everything solved so far written), and the frames asked for after it are
 reported as not solved, with why: under ``"not_solved"`` in ``summary.json``
