@@ -1,4 +1,4 @@
-"""The README's sample report is what a run of the shipped example prints."""
+"""docs/results.md's sample report is what a run of the shipped example prints."""
 
 from pathlib import Path
 
@@ -9,9 +9,9 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def _sample() -> list[dict[str, str]]:
-    """The indented block that follows the README's pointer to this test."""
-    text = (ROOT / "README.md").read_text().splitlines()
-    start = next(i for i, ln in enumerate(text) if "test_readme_sample.py" in ln) + 1
+    """The indented block that follows the document's pointer to this test."""
+    text = (ROOT / "docs" / "results.md").read_text().splitlines()
+    start = next(i for i, ln in enumerate(text) if "test_report_sample.py" in ln) + 1
     while not text[start].startswith("    "):
         start += 1
     block = []
