@@ -208,3 +208,8 @@ def test_explicit_all(name):
     names = {getattr(t, "id", "") for node in tree.body if isinstance(node, ast.Assign)
              for t in node.targets}
     assert "__all__" in names, f"{name}: no __all__"
+
+
+def test_the_readme_is_short_enough_to_read():
+    # what it is, the set-up, a picture, how to run a scene, where to read on: the rest in docs/
+    assert (ROOT / "README.md").stat().st_size < 14_000
