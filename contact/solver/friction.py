@@ -146,7 +146,9 @@ def _measure(prob: NaturalMap, scale: float) -> Callable[[NDArray, NDArray], flo
     return measure
 
 
-def _reduced_step(j: NDArray, f: NDArray, inactive: NDArray[np.bool_], a: NDArray, c: NDArray):
+def _reduced_step(
+    j: NDArray, f: NDArray, inactive: NDArray[np.bool_], a: NDArray, c: NDArray
+) -> NDArray:
     """Newton step ``J d = -F`` with the open contacts' rows (``J`` = identity) taken out.
 
     Their forces step to zero (``d = -F`` there); the rest is a system of the closed
