@@ -135,15 +135,7 @@ def assemble_stiffness(
         If a region of the mesh has no material.
     """
     fields = lame_fields(mesh, materials)
-    n_nodes = mesh.n_points
-    # Node-pair pattern: one 3x3 block per pair of nodes sharing a cell (9x fewer keys
-    # to sort than scalar COO entries), summed with bincount, stored as BSR, then CSR.
-    keys = np.concatenate(
-        [(c[:, :, None] * n_nodes + c[:, None, :]).ravel() for c in mesh.cells.values()]
-    )
-    pairs, inverse = np.unique(keys, return_inverse=True)
-    del keys
-    inverse = inverse.ravel()
+    pairs, inverse = _node_pairs(mesh, list(mesh.cells))
     blocks = np.zeros((len(pairs), 9))
     pos = 0
     for kind, conn in mesh.cells.items():
@@ -153,21 +145,48 @@ def assemble_stiffness(
             c = conn[s : s + CHUNK]
             kb = element_blocks(mesh.points[c], elem, lam[s : s + CHUNK], mu[s : s + CHUNK], bbar)
             kb = kb.reshape(-1, 9)
-            idx = inverse[pos : pos + len(kb)]
-            # one scatter over only the pairs this chunk touches: its cost follows the
-            # chunk, not the whole pattern
-            lo, hi = int(idx.min()), int(idx.max()) + 1
-            flat = ((idx - lo)[:, None] * 9 + np.arange(9)).ravel()
-            blocks[lo:hi] += np.bincount(flat, kb.ravel(), minlength=(hi - lo) * 9).reshape(-1, 9)
+            _scatter(blocks, inverse[pos : pos + len(kb)], kb)
             pos += len(kb)
-    rows = pairs // n_nodes
-    indptr = np.zeros(n_nodes + 1, dtype=np.int64)
-    np.cumsum(np.bincount(rows, minlength=n_nodes), out=indptr[1:])
-    bsr = sp.bsr_matrix(
-        (blocks.reshape(-1, 3, 3), pairs % n_nodes, indptr), shape=(mesh.n_dofs, mesh.n_dofs)
-    )
+    k = _to_csr(mesh, pairs, blocks)
     if nodal_pressure and "tetra" in mesh.cells:
-        return (bsr.tocsr() + nodal_pressure_correction(mesh, materials)).tocsr()
+        return (k + nodal_pressure_correction(mesh, materials)).tocsr()
+    return k
+
+
+def _node_pairs(mesh: Mesh, kinds: list[str]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """The node-pair pattern of the cells of ``kinds``: the pairs' keys and each block's pair.
+
+    One 3x3 block per pair of nodes sharing a cell (9x fewer keys to sort than scalar COO
+    entries), keyed ``row * N + column``, in the cells' order, node pairs within a cell
+    row-major.
+    """
+    n = mesh.n_points
+    keys = np.concatenate(
+        [(mesh.cells[k][:, :, None] * n + mesh.cells[k][:, None, :]).ravel() for k in kinds]
+    )
+    pairs, inverse = np.unique(keys, return_inverse=True)
+    return pairs, inverse.ravel()
+
+
+def _scatter(blocks: NDArray, idx: NDArray[np.int64], values: NDArray) -> None:
+    """Add ``values (k, 9)`` into ``blocks`` at the pairs ``idx``, in one bincount.
+
+    The bincount spans only the pairs ``idx`` touches: its cost follows the chunk, not
+    the whole pattern.
+    """
+    lo, hi = int(idx.min()), int(idx.max()) + 1
+    flat = ((idx - lo)[:, None] * 9 + np.arange(9)).ravel()
+    blocks[lo:hi] += np.bincount(flat, values.ravel(), minlength=(hi - lo) * 9).reshape(-1, 9)
+
+
+def _to_csr(mesh: Mesh, pairs: NDArray[np.int64], blocks: NDArray) -> sp.csr_matrix:
+    """The summed node-pair blocks ``(P, 9)`` as a CSR matrix over the mesh's DOFs."""
+    n = mesh.n_points
+    indptr = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(np.bincount(pairs // n, minlength=n), out=indptr[1:])
+    bsr = sp.bsr_matrix(
+        (blocks.reshape(-1, 3, 3), pairs % n, indptr), shape=(mesh.n_dofs, mesh.n_dofs)
+    )
     return bsr.tocsr()
 
 
@@ -181,24 +200,11 @@ def assemble_blocks(
     bincount scatter are :func:`assemble_stiffness`'s: no COO triple larger than the
     blocks themselves.
     """
-    n_nodes = mesh.n_points
     kinds = [k for k in mesh.cells if blocks.get(k)]
     if not kinds:
         return sp.csr_matrix((mesh.n_dofs, mesh.n_dofs))
-    keys = np.concatenate(
-        [(mesh.cells[k][:, :, None] * n_nodes + mesh.cells[k][:, None, :]).ravel() for k in kinds]
-    )
-    pairs, inverse = np.unique(keys, return_inverse=True)
-    del keys
-    inverse = inverse.ravel()
-    flat = (inverse[:, None] * 9 + np.arange(9)).ravel()
-    total = np.zeros(len(pairs) * 9)
-    values = np.concatenate([sum(blocks[k]).reshape(-1) for k in kinds])
-    total += np.bincount(flat, values, minlength=total.size)
-    rows = pairs // n_nodes
-    indptr = np.zeros(n_nodes + 1, dtype=np.int64)
-    np.cumsum(np.bincount(rows, minlength=n_nodes), out=indptr[1:])
-    bsr = sp.bsr_matrix(
-        (total.reshape(-1, 3, 3), pairs % n_nodes, indptr), shape=(mesh.n_dofs, mesh.n_dofs)
-    )
-    return bsr.tocsr()
+    pairs, inverse = _node_pairs(mesh, kinds)
+    total = np.zeros((len(pairs), 9))
+    values = np.concatenate([sum(blocks[k]).reshape(-1, 9) for k in kinds])
+    _scatter(total, inverse, values)
+    return _to_csr(mesh, pairs, total)
