@@ -35,6 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .assembly import assemble_blocks
 from .dofs import element_dofs
+from .eigen3 import eigh3
 from .elements import ELEMENTS
 from .errors import MaterialError
 from .mapping import det3, gradients, inv3
@@ -263,10 +264,7 @@ def finite_strain(
             blocks.setdefault(kind, []).append(kb)
     if tet_share is not None:
         conn, dv, h, dvol, vol0, kappa, dofs = tet_share
-        vn = np.bincount(conn.ravel(), np.repeat(dvol / 4.0, 4), minlength=n)
-        vol_n = np.bincount(conn.ravel(), np.repeat(vol0 / 4.0, 4), minlength=n)
-        kv_n = np.bincount(conn.ravel(), np.repeat(kappa * vol0 / 4.0, 4), minlength=n)
-        on = vol_n > 0
+        vn, vol_n, kv_n, on = _nodal_groups(conn, dvol, vol0, kappa, n)
         node_group = np.full(n, -1, np.int64)
         node_group[on] = n_groups + np.arange(int(on.sum()))
         # D row of node c: sum over its tetrahedra of dv_e / 4
@@ -337,11 +335,7 @@ def cauchy_stress(
         vol0 = wdet.sum(axis=1)
         dvol = (wdet * jm1).sum(axis=1)
         if kind == "tetra":
-            share = np.repeat(vol0 / 4.0, 4)
-            vol_n = np.bincount(conn.ravel(), share, minlength=n)
-            dv_n = np.bincount(conn.ravel(), np.repeat(dvol / 4.0, 4), minlength=n)
-            kv_n = np.bincount(conn.ravel(), np.repeat(kappa, 4) * share, minlength=n)
-            on = vol_n > 0
+            dv_n, vol_n, kv_n, on = _nodal_groups(conn, dvol, vol0, kappa, n)
             pn = np.zeros(n)
             pn[on] = _group_slope(dv_n[on], vol_n[on], kv_n[on] / vol_n[on])
             pressure = pn[conn].mean(axis=1)
@@ -364,9 +358,23 @@ def log_strain(mesh: Mesh, u: ArrayLike) -> dict[str, NDArray[np.float64]]:
     for kind in mesh.cells:
         _, _, hg, _ = _kinematics(mesh, kind, ua)
         e2 = hg + np.swapaxes(hg, -1, -2) + np.swapaxes(hg, -1, -2) @ hg  # C - I
-        w = np.linalg.eigvalsh(e2.reshape(-1, 3, 3)).reshape(*hg.shape[:2], 3)
+        w = eigh3(e2.reshape(-1, 3, 3))[0].reshape(*hg.shape[:2], 3)
         out[kind] = 0.5 * np.log1p(w)
     return out
+
+
+def _nodal_groups(
+    conn: NDArray[np.int64], dvol: NDArray, vol0: NDArray, kappa: NDArray, n: int
+) -> tuple[NDArray, NDArray, NDArray, NDArray[np.bool_]]:
+    """The tetrahedra's nodal groups: each node's ``v - V``, ``V``, ``kappa V``, and has one.
+
+    A node takes a quarter of each of its tetrahedra's volumes.
+    """
+    nodes = conn.ravel()
+    dv_n = np.bincount(nodes, np.repeat(dvol / 4.0, 4), minlength=n)
+    vol_n = np.bincount(nodes, np.repeat(vol0 / 4.0, 4), minlength=n)
+    kv_n = np.bincount(nodes, np.repeat(kappa * vol0 / 4.0, 4), minlength=n)
+    return dv_n, vol_n, kv_n, vol_n > 0
 
 
 def _kinematics(mesh: Mesh, kind: str, ua: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
