@@ -11,14 +11,12 @@ reported as not solved, with why: under ``"not_solved"`` in ``summary.json``
 
 from __future__ import annotations
 
-import json
 import shlex
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from .errors import OutputError
-from .output.staging import write_atomic
+from .output.summary import update_summary
 from .report import SUMMARY_KEYS, parse_line, summary_line
 from .solver.results import FrameResult
 
@@ -78,14 +76,12 @@ def add_not_solved(path: str | Path, records: Sequence[Mapping[str, Any]]) -> No
     OutputError
         When the file cannot be read or written back.
     """
-    path = Path(path)
-    try:
-        summary = json.loads(path.read_text())
-        summary["not_solved"] = [dict(r) for r in records]
-        summary["all_converged"] = summary["all_realistic"] = False
-        write_atomic(path, (json.dumps(summary, indent=2, allow_nan=False) + "\n").encode())
-    except (OSError, ValueError) as exc:
-        raise OutputError(f"cannot add the frames not solved to {path}: {exc}") from None
+    update_summary(
+        path,
+        {"not_solved": [dict(r) for r in records], "all_converged": False,
+         "all_realistic": False},
+        "the frames not solved",
+    )  # fmt: skip
 
 
 def not_solved_line(records: Sequence[Mapping[str, Any]]) -> str:

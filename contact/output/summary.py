@@ -39,6 +39,7 @@ __all__ = [
     "max_strain",
     "part_forces",
     "summary_text",
+    "update_summary",
     "verdict",
 ]
 
@@ -436,10 +437,21 @@ def add_least_grip(path: str | Path, record: Mapping[str, Any]) -> None:
     OutputError
         When the file cannot be read or written back.
     """
+    update_summary(path, {"least_grip": record}, "the least grip")
+
+
+def update_summary(path: str | Path, items: Mapping[str, Any], what: str) -> None:
+    """Set top-level ``items`` of a written ``summary.json``, the file replaced atomically.
+
+    Raises
+    ------
+    OutputError
+        When the file cannot be read or written back (naming ``what`` was being added).
+    """
     path = Path(path)
     try:
         summary = json.loads(path.read_text())
-        summary["least_grip"] = jsonable(record)
+        summary.update(jsonable(dict(items)))
         write_atomic(path, (json.dumps(summary, indent=2, allow_nan=False) + "\n").encode())
     except (OSError, ValueError) as exc:
-        raise OutputError(f"cannot add the least grip to {path}: {exc}") from None
+        raise OutputError(f"cannot add {what} to {path}: {exc}") from None
