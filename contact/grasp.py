@@ -39,12 +39,8 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import logging
-import os
-import signal
 import sys
-import tempfile
 import time
-import traceback
 import warnings
 from collections.abc import Sequence
 from pathlib import Path
@@ -53,6 +49,7 @@ from typing import TextIO
 import fem
 
 from . import unheld
+from .cli import check_terminated, guarded
 from .errors import ContactError, OutputError, SceneError, TargetError
 from .hand.fingers import node_parts
 from .leastgrip import Trial, judge, least_grip
@@ -67,9 +64,6 @@ from .solver.results import FrameResult, IterationRecord
 __all__ = [
     "EXIT_STATUS",
     "GraspRun",
-    "Terminated",
-    "catch_sigterm",
-    "internal_error",
     "main",
     "run",
 ]
@@ -90,21 +84,6 @@ EXIT_STATUS = (
 )
 #: Frames named one line each on stderr when a run exits 1; past these, one line counts.
 _FAILED_LINES = 5
-
-
-class Terminated(BaseException):
-    """SIGTERM, raised where the run is, so that it unwinds as Ctrl-C does."""
-
-
-#: SIGTERMs received: the handler's exception is lost where it lands in a callback whose
-#: exceptions Python ignores (a weakref's, a ``__del__``), so frames check this too.
-_SIGNALLED: list[int] = []
-
-
-def _check_terminated() -> None:
-    """Raise :class:`Terminated` where a SIGTERM came and its exception was swallowed."""
-    if _SIGNALLED:
-        raise Terminated
 
 
 def _version() -> str:
@@ -212,7 +191,7 @@ def run(
                 "bone_names": run_.hand.skeleton.bone_names,
             }
         for k, i in enumerate(solved):
-            _check_terminated()
+            check_terminated()
             t = times[i]
             t0 = time.perf_counter()
             bar.set_description(f"t = {t:g}")
@@ -264,7 +243,7 @@ def run(
                 break
         if least:
             found = _least_grip(run_, times, results, bar, quiet)
-        _check_terminated()
+        check_terminated()
         writer.finish(scene.echo(), versions=versions())
         if found is not None:
             summary.add_least_grip(directory / "summary.json", found)
@@ -424,62 +403,27 @@ def main(argv: Sequence[str] | None = None) -> int:
     # line on stderr like the log's, not a source line and a traceback-like location
     shown = warnings.showwarning
     warnings.showwarning = _warn_line
-    term = catch_sigterm()
     try:
-        if args.pose_only and args.least_grip:
-            print("error: --least-grip solves the scene: it takes no --pose-only", file=sys.stderr)
-            return 2
-        if args.pose_only:
-            return pose_only(args.scene, out=args.out, frames=args.frames, quiet=args.quiet)
-        return run(
-            args.scene,
-            out=args.out,
-            frames=args.frames,
-            pictures=False if args.no_pictures else None,
-            quiet=args.quiet,
-            least=args.least_grip,
-        )
-    except (KeyboardInterrupt, Terminated) as exc:
-        print("interrupted; the previous results are untouched", file=sys.stderr)
-        return 143 if isinstance(exc, Terminated) else 130
-    except Exception as exc:
-        return internal_error(exc)
+        return guarded(lambda: _dispatch(args), "the previous results are untouched")
     finally:
-        if term is not None:
-            signal.signal(signal.SIGTERM, term)  # type: ignore[arg-type]
         warnings.showwarning = shown
 
 
-def catch_sigterm() -> object:
-    """Make SIGTERM raise :class:`Terminated`; the handler before, or None (not main thread)."""
-
-    def handler(signum: int, frame: object) -> None:
-        _SIGNALLED.append(signum)
-        raise Terminated
-
-    _SIGNALLED.clear()
-    try:
-        return signal.signal(signal.SIGTERM, handler)
-    except ValueError:  # not the main thread
-        return None
-
-
-def internal_error(exc: Exception) -> int:
-    """Write the traceback to a log file; one line on stderr naming both; exit status 3."""
-    text = traceback.format_exc()
-    what = (str(exc).splitlines() or [""])[0][:300]
-    try:
-        fd, name = tempfile.mkstemp(prefix="grasp-contact-", suffix=".log")
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
-        where = f"traceback in {name}"
-    except OSError:
-        where = "no log file could be written"
-    print(
-        f"error: internal error: {type(exc).__name__}: {what}; {where}; please report it",
-        file=sys.stderr,
+def _dispatch(args: argparse.Namespace) -> int:
+    """The command the arguments ask for: a run, a pose-only run, or a refusal."""
+    if args.pose_only and args.least_grip:
+        print("error: --least-grip solves the scene: it takes no --pose-only", file=sys.stderr)
+        return 2
+    if args.pose_only:
+        return pose_only(args.scene, out=args.out, frames=args.frames, quiet=args.quiet)
+    return run(
+        args.scene,
+        out=args.out,
+        frames=args.frames,
+        pictures=False if args.no_pictures else None,
+        quiet=args.quiet,
+        least=args.least_grip,
     )
-    return 3
 
 
 def _warn_line(

@@ -51,8 +51,8 @@ from pathlib import Path
 from typing import Any
 
 from . import sweepcluster
+from .cli import guarded
 from .errors import ContactError
-from .grasp import Terminated, catch_sigterm, internal_error
 from .grasp import run as grasp_run
 from .scene.read import load_scene
 from .sweepcluster import check_address, client, hold
@@ -373,20 +373,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 2
     logging.basicConfig(level=logging.ERROR if args.quiet else logging.WARNING,
                         format="%(levelname)s: %(message)s")  # fmt: skip
-    term = catch_sigterm()
-    try:
-        return sweep(args.sweep, out=args.out, scheduler=args.scheduler,
-                     workers=counts["workers"], threads=counts["threads"],
-                     quiet=args.quiet)  # fmt: skip
-    except (KeyboardInterrupt, Terminated) as exc:
-        print("interrupted; the runs done are kept: run the sweep again to resume",
-              file=sys.stderr)  # fmt: skip
-        return 143 if isinstance(exc, Terminated) else 130
-    except Exception as exc:
-        return internal_error(exc)
-    finally:
-        if term is not None:
-            signal.signal(signal.SIGTERM, term)  # type: ignore[arg-type]
+    return guarded(
+        lambda: sweep(args.sweep, out=args.out, scheduler=args.scheduler,
+                      workers=counts["workers"], threads=counts["threads"],
+                      quiet=args.quiet),
+        "the runs done are kept: run the sweep again to resume",
+    )  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 
+import contact.cli
 import contact.grasp
 from contact.errors import OutputError
 from contact.grasp import main
@@ -164,7 +165,7 @@ def test_a_sigterm_whose_exception_was_swallowed_still_stops_the_run(
 
     def frame_then_signal(self, *args, **kwargs):
         result = frame(self, *args, **kwargs)
-        contact.grasp._SIGNALLED.append(signal.SIGTERM)  # the handler ran; its raise was lost
+        contact.cli.SIGNALLED.append(signal.SIGTERM)  # the handler ran; its raise was lost
         return result
 
     monkeypatch.setattr(GraspRun, "frame", frame_then_signal)
