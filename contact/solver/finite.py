@@ -227,14 +227,13 @@ def solve_finite_frame(
         mixed = _anderson(history, u, steps_now, [b.name for b in finite if b.free])
         if step < ANDERSON_FROM or not _slow(history):
             mixed = {}
+        residual = 0.0
         for b in finite:
             du = steps_now[b.name]
             moves[b.name] = float(np.abs(du).max(initial=0.0)) / size[b.name]
             target = mixed.get(b.name, u[b.name] + du) - u[b.name]
-            u[b.name] = u[b.name] + _inside_out_safe(b, u[b.name], target)
-        residual = max(
-            (_residual(b, u[b.name], res.contact_force[b.name]) for b in finite), default=0.0
-        )
+            u[b.name], f_int = _stepped(b, u[b.name], target)
+            residual = max(residual, _residual(b, u[b.name], f_int, res.contact_force[b.name]))
         clock["checks"] += time.perf_counter() - t2
         if max(moves.values(), default=0.0) <= STEP_TOL and residual <= RESIDUAL:
             stop = "converged"
@@ -305,21 +304,26 @@ def _anderson(history, u, steps, names, depth: int = ANDERSON):
     return out
 
 
-def _inside_out_safe(body: FiniteBody, u: NDArray, du: NDArray) -> NDArray:
-    """``du``, halved until no cell of ``body`` turns inside out at ``u + du``."""
+def _stepped(body: FiniteBody, u: NDArray, du: NDArray) -> tuple[NDArray, NDArray]:
+    """``u + du`` and the internal forces there (the residual's, computed once).
+
+    ``du`` is halved until no cell of ``body`` turns inside out.
+    """
     for _ in range(HALVINGS):
         try:
-            fem.finite_strain(body.mesh, body.materials, u + du, stiffness=False)
+            f_int = fem.finite_strain(body.mesh, body.materials, u + du, stiffness=False).force
         except fem.MaterialError:
             du = du / 2
             continue
-        return du
-    return du
+        return u + du, f_int
+    return u, fem.finite_strain(body.mesh, body.materials, u, stiffness=False).force
 
 
-def _residual(body: FiniteBody, u: NDArray, contact: NDArray) -> float:
-    """The free DOFs' forces out of balance at ``u`` with ``contact`` forces, relative."""
-    f_int = fem.finite_strain(body.mesh, body.materials, u, stiffness=False).force
+def _residual(body: FiniteBody, u: NDArray, f_int: NDArray, contact: NDArray) -> float:
+    """The free DOFs' forces out of balance at ``u``, relative to the largest force.
+
+    ``f_int`` the internal forces there, ``contact`` the contact forces.
+    """
     f_ext = np.zeros_like(f_int) if body.loads is None else body.loads.copy()
     if body.follower is not None:
         f_ext += follower_pressure(body.mesh, *body.follower, u)[0]
