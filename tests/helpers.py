@@ -137,3 +137,16 @@ def same_outcome(a, b, rtol: float = 1e-8) -> None:
     for name, u in a.displacement.items():
         scale = max(float(np.abs(u).max()), 1e-300)
         assert np.abs(b.displacement[name] - u).max() <= rtol * scale, name
+
+
+def uniaxial_stress(lam: float, mu: float, stretch: float) -> tuple[float, float]:
+    """The neo-Hookean law's uniaxial stress at axial ``stretch``: the lateral stretch
+    (free sides) and the axial first Piola-Kirchhoff stress ``P33`` (Pa)."""
+    from scipy.optimize import brentq
+
+    def p11(s: float) -> float:
+        return mu * (s - 1 / s) + lam * np.log(s * s * stretch) / s
+
+    side = brentq(p11, 0.5, 2.0, xtol=1e-15)
+    j = side * side * stretch
+    return side, mu * (stretch - 1 / stretch) + lam * np.log(j) / stretch
