@@ -163,6 +163,9 @@ class BallSpec:
         outside (:meth:`load_at`); in the scene's frame, the moment about the ball's centre
         where the ball is placed at ``t``. Forces up to :data:`MAX_LOAD_FORCE`, moments up
         to :data:`MAX_LOAD_MOMENT`. Empty (default): no load.
+    model : str
+        ``"linear"`` (default) or ``"neo-hookean"``: solved at finite strain, a hollow
+        ball's pressure following its deformed cavity.
 
     Raises
     ------
@@ -184,6 +187,7 @@ class BallSpec:
     density: float = 1100.0
     nodal_pressure: bool | None = None
     load: tuple[tuple[float, ...], ...] = ()
+    model: str = "linear"
 
     def __post_init__(self) -> None:
         r = _number("radius", self.radius)
@@ -205,6 +209,10 @@ class BallSpec:
             if not 0 < t < r:
                 why = "must be positive" if t <= 0 else f"must be below the radius {r}"
                 raise BallError(f"ball.thickness = {self.thickness!r}: {why}")
+        if self.model not in ("linear", "neo-hookean"):
+            raise BallError(
+                f"ball.material.model = {self.model!r}: must be linear or neo-hookean"
+            )
         if self.nodal_pressure not in (None, True, False):
             raise BallError(
                 f"ball.nodal_pressure = {self.nodal_pressure!r}: must be true, false or absent"
@@ -436,7 +444,7 @@ def make_ball(spec: BallSpec) -> Ball:
             "ball: nu = %g on linear tetrahedra: averaged nodal pressures (no locking)", spec.nu
         )
     strain = spec.pressure_strain
-    if strain > STRAIN_WARN:
+    if strain > STRAIN_WARN and spec.model == "linear":
         warnings.warn(
             f"ball.pressure = {spec.pressure:g} Pa strains the wall by {100 * strain:.3g} % "
             f"on its own (Lame's thick sphere, E = {spec.E:g} Pa): beyond the small strains "

@@ -220,6 +220,7 @@ def run(
                     b.materials,
                     bbar=b.bbar,
                     nodal_pressure=b.nodal_pressure,
+                    finite=b.finite,
                     **(hand_labels if b.name == "hand" else {}),
                 )
                 for b in frame_bodies
@@ -318,10 +319,11 @@ def _figures(run: GraspRun, result: FrameResult, bodies: Sequence[ElasticBody], 
     strains = {}
     for b in bodies:
         e = summary.max_strain(
-            b.mesh, result.displacement[b.name], bbar=b.bbar, nodal_pressure=b.nodal_pressure
-        )
+            b.mesh, result.displacement[b.name], bbar=b.bbar, nodal_pressure=b.nodal_pressure,
+            finite=b.finite,
+        )  # fmt: skip
         strains[b.name] = e
-        if e > summary.SMALL_STRAIN:
+        if e > summary.SMALL_STRAIN and not b.finite:
             log.warning(
                 "t = %g: the %s's largest strain is %.0f %%, past %.0f %%: beyond small-strain "
                 "linear elasticity, its forces and stresses are an extrapolation",

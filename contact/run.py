@@ -9,15 +9,16 @@ For every frame, after Gourret, Magnenat-Thalmann and Thalmann (1989, Fig. 9):
    a joint); the planes moved;
 2. to 5. the contact iteration (:func:`contact.solver.iteration.solve_frame`), in contact
    space by default or as the paper's literal loop; each pair with its Coulomb
-   coefficient (:meth:`contact.scene.Scene.friction`).
+   coefficient (:meth:`contact.scene.Scene.friction`); by Newton's method around it
+   where a body is neo-Hookean (:mod:`contact.solver.finite`).
 
-:class:`GraspRun` keeps what lasts across frames: each object (the ball too) is factored
-once per scene (again only when its placement turns it), the hand once per pose, the previous pose
-warm-starts the next, and friction's stick anchors of the last frame solved are where the
-next frame's slip is measured from. Frames must therefore be solved in time order when
-the scene has friction. At the scene's start it refuses an object placed deep inside the
-skin, a plane or another object, and warns of a shallow overlap
-(:func:`contact.startchecks.check_overlaps`). Writing the results is the caller's.
+:class:`GraspRun` keeps what lasts across frames: each linear object (the ball too) is
+factored once per scene (again only when its placement turns it), the linear hand once
+per pose, the previous pose warm-starts the next, a neo-Hookean body starts where the
+last frame left it, and friction's anchors of the last frame solved are where the next
+frame's slip is measured from: frames are solved in time order. At the scene's start it
+refuses an object placed deep inside the skin, a plane or another object, and warns of a
+shallow overlap (:func:`contact.startchecks.check_overlaps`). Writing is the caller's.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.sparse as sp
 from numpy.typing import NDArray
 
 import fem
@@ -44,15 +46,18 @@ from .hand.posing import HandPoser, Pose
 from .hand.shipped import load_hand
 from .objects.meshing import mesh_object
 from .objects.placed import SceneObject, from_ball, from_scene, object_pairs
-from .rolling import MAX_ROLLS, ROLL, turned_placement
+from .rolling import solve_rolled
 from .scene.model import PlaneScene
 from .scene.spec import Scene
 from .solver.anchors import Anchors
 from .solver.body import ElasticBody
+from .solver.finite import FiniteBody, solve_finite_frame
 from .solver.iteration import solve_frame
 from .solver.pairs import ContactPair
 from .solver.results import FrameResult, IterationRecord
+from .solver.settings import ContactSettings
 from .startchecks import check_bones, check_overlaps
+from .stepping import solve_stepped
 
 __all__ = ["GraspRun"]
 
@@ -86,6 +91,9 @@ class GraspRun:
     positions : dict of str to ndarray
         Each force-driven plane's translation (m, shape (3,)) where the last frame solved
         left it: the next frame starts it there.
+    placed_anew : dict of str to ndarray
+        Each free linear object's placement anew (4x4) after it rolled, on top of its
+        scene's (:func:`contact.rolling.solve_rolled`).
     """
 
     scene: Scene
@@ -99,11 +107,12 @@ class GraspRun:
     _fingers: dict = field(default_factory=dict, init=False, repr=False)
     anchors: Anchors | None = field(default=None, init=False)
     positions: dict[str, NDArray[np.float64]] = field(default_factory=dict, init=False)
-    _last_time: float | None = field(default=None, init=False, repr=False)
-    _frame_time: float | None = field(default=None, init=False, repr=False)
-    # each free object's placement anew after it rolled (contact.rolling), on its scene's
-    _rolls: dict[str, NDArray[np.float64]] = field(default_factory=dict, init=False, repr=False)
+    last_time: float | None = field(default=None, init=False, repr=False)
+    frame_time: float | None = field(default=None, init=False, repr=False)
+    placed_anew: dict[str, NDArray[np.float64]] = field(default_factory=dict, init=False)
     _started: bool = field(default=False, init=False, repr=False)
+    # each finite body's last displacement (the hand's with its pose; an object's unturned)
+    _u: dict[str, tuple] = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self) -> None:
         sc = self.scene
@@ -125,8 +134,8 @@ class GraspRun:
             self.poser = HandPoser(self.hand)
             self.keyframes = Keyframes(self.hand.skeleton, list(hs.keyframes))
             self.flesh = hs.flesh.elastic()
-            # the flesh is linear tetrahedra: averaged nodal pressures where they would
-            # lock, as for a tet ball
+            self.flesh_finite = hs.flesh.finite
+            # linear tetrahedra: averaged nodal pressures where they would lock
             self.nodal_pressure = nodal_pressure(
                 True, hs.flesh.nu, hs.nodal_pressure, "hand.flesh"
             )
@@ -188,7 +197,7 @@ class GraspRun:
 
         A step of ``solver.substeps`` takes those of the frame it leads to.
         """
-        t = self._frame_time if self._frame_time is not None else t
+        t = self.frame_time if self.frame_time is not None else t
         return [
             af
             for af in self.scene.hand.auto_flexion  # type: ignore[union-attr]
@@ -199,7 +208,7 @@ class GraspRun:
         """The rigid placement of ``obj`` at ``t`` from its scene's (4x4): joint, then roll."""
         pose = self.keyframes.pose if self.keyframes is not None else None
         skeleton = self.hand.skeleton if self.hand is not None else None
-        return self._rolls.get(obj.name, np.eye(4)) @ obj.transform(skeleton, pose, t)
+        return self.placed_anew.get(obj.name, np.eye(4)) @ obj.transform(skeleton, pose, t)
 
     def ball_transform(self, t: float) -> NDArray[np.float64]:
         """Rigid placement of the first object (the ball) at ``t`` from its scene position."""
@@ -241,6 +250,8 @@ class GraspRun:
         pose = self.poser.pose(angles, start=self._pose)
         mesh = pose.mesh()
         prescribed = fem.node_dofs(self.hand.prescribed_nodes)  # type: ignore[union-attr]
+        # a neo-Hookean hand is the finite solve's reference: no linear stiffness
+        zero = sp.csr_matrix((mesh.n_dofs, mesh.n_dofs)) if self.flesh_finite else None
         self._hand_body = ElasticBody(
             "hand",
             mesh,
@@ -250,7 +261,9 @@ class GraspRun:
             backend=self.scene.solver.linear_solver,
             contact_faces=self.hand.skin_faces,  # type: ignore[union-attr]
             nodal_pressure=self.nodal_pressure,
+            stiffness=zero,
         )
+        self._hand_body.finite = self.flesh_finite
         self._hand_key = key
         self._pose = pose
         return self._hand_body
@@ -265,10 +278,11 @@ class GraspRun:
         out.__dict__.update(self.__dict__)
         out.scene = scene
         out.anchors = None
-        out._rolls = {}
-        out._last_time = None
+        out.placed_anew = {}
+        out.last_time = None
         out._started = False
         out.positions = {}
+        out._u = {}
         return out
 
     # --- one frame -----------------------------------------------------------------
@@ -280,7 +294,11 @@ class GraspRun:
 
         With friction and ``solver.substeps = n > 1``, the steps of time between the last
         frame solved and ``t`` are solved first (``n - 1`` of them, not returned), each
-        carrying the anchors to the next.
+        carrying the anchors to the next. A frame with a neo-Hookean body whose Newton
+        does not converge (where no free body fell) is solved again from the last
+        frame's state with its step of time cut in 2, then 4 (:data:`contact.stepping.MAX_CUTS`): a
+        smaller increment of the pose and the loads, as a finite-strain code cuts back
+        its time step.
 
         Parameters
         ----------
@@ -301,17 +319,24 @@ class GraspRun:
         bodies : list of ElasticBody
             The ball, then the hand.
         """
-        n = self.scene.solver.substeps
-        last = self._last_time
-        if n > 1 and last is not None and t > last and self.scene.frictional:
-            for i in range(1, n):
-                self._frame_time = t
-                self._solve(last + (t - last) * i / n, None)
-        self._frame_time = None
-        self._last_time = t
-        return self._solve(t, callback)
+        return solve_stepped(self, t, callback)
 
-    def _solve(
+    @property
+    def finite(self) -> bool:
+        """The scene has a neo-Hookean body."""
+        return bool(self.hand and self.flesh_finite) or any(o.finite for o in self.objects)
+
+    def history(self) -> tuple:
+        """What a frame carries to the next: anchors, planes, pose, rolls, finite placements."""
+        kept = (self.anchors, dict(self.positions), self._pose)
+        return (*kept, dict(self.placed_anew), dict(self._u))
+
+    def restore(self, kept: tuple) -> None:
+        """Back to the :meth:`history` ``kept``."""
+        self.anchors, self.positions, self._pose = kept[0], dict(kept[1]), kept[2]
+        self.placed_anew, self._u = dict(kept[3]), dict(kept[4])
+
+    def solve_at(
         self, t: float, callback: Callable[[IterationRecord], None] | None
     ) -> tuple[FrameResult, dict, list[Plane], list[ElasticBody]]:
         """Set up and solve the contact at time ``t``, carrying the anchors.
@@ -324,16 +349,15 @@ class GraspRun:
         posing = time.perf_counter() - t0  # set-up too: the automatic flexions' search
         targets = self._targets(t)
         if not targets:
-            out = self._solve_pose(t, angles, callback)
+            out = solve_rolled(self, t, angles, callback)
             out[0].timings["setup"] += posing
             return out
         # every trial from the same history, its flesh relaxed from the same pose
-        kept = (self.anchors, dict(self.positions), self._pose, dict(self._rolls))
+        kept = self.history()
 
         def trial(pose: dict[str, float]) -> tuple[tuple, dict[str, float]]:
-            self.anchors, self.positions, self._pose = kept[0], dict(kept[1]), kept[2]
-            self._rolls = dict(kept[3])
-            out = self._solve_pose(t, pose, callback)
+            self.restore(kept)
+            out = solve_rolled(self, t, pose, callback)
             return out, finger_forces(out[0].contact_fields.get("hand"), self._parts(), targets)
 
         pressed = guess(self._fingers, t, angles, {**angles, **self._pressed}, targets)
@@ -376,58 +400,7 @@ class GraspRun:
             self._node_parts = node_parts(self.hand.flesh, len(self.hand.part_names))
         return self._node_parts
 
-    def _solve_pose(
-        self, t: float, angles: dict[str, float], callback: Callable[[IterationRecord], None] | None
-    ) -> tuple[FrameResult, dict, list[Plane], list[ElasticBody]]:
-        """Solve the contact at time ``t`` with the hand at ``angles``.
-
-        A free object that turns past :data:`contact.rolling.ROLL` is placed anew, turned
-        and moved by its rigid motion, and the frame solved again from the same history.
-        """
-        before = (self.anchors, dict(self.positions))
-        out = self._solve_placed(t, angles, callback)
-        free = [o.name for o in self.objects if o.rolls]
-        best: tuple[float, tuple, dict] | None = None
-        for _ in range(MAX_ROLLS if free else 0):
-            result, bodies = out[0], {b.name: b for b in out[3]}
-            stop = result.stop_reason
-            settled = result.converged or any(stop.startswith(f"{n} turned") for n in free)
-            if not settled:
-                break  # an object not held is where a soft spring left it: no placement
-            rigid = {n: fem.rigid_part(bodies[n].mesh.points, result.displacement[n]) for n in free}
-            turns = {n: float(np.linalg.norm(omega)) for n, (_, omega) in rigid.items()}
-            turn = max(turns.values())
-            if best is not None and turn > 0.5 * best[0]:
-                break  # placed anew, it turns about as much again (a pivot friction hardly holds)
-            best = (turn, out, dict(self._rolls))
-            if turn <= ROLL:
-                break
-            for n in free:
-                if turns[n] > ROLL:
-                    log.info(
-                        "t = %g: %s turned %.3g deg: placed anew and solved again",
-                        t, n, np.degrees(turns[n]),
-                    )  # fmt: skip
-                    move, omega = rigid[n]
-                    turn_n = turned_placement(bodies[n].mesh.points, move, omega)
-                    self._rolls[n] = turn_n @ self._rolls.get(n, np.eye(4))
-            # the same history: the frame starts where the objects were (at rest, first frame)
-            start = before[0] or Anchors(
-                displacement={n: np.zeros_like(bodies[n].mesh.points) for n in free},
-                reference={n: bodies[n].mesh.points.copy() for n in free},
-            )
-            self.anchors, self.positions = start, dict(before[1])
-            out = self._solve_placed(t, angles, callback)
-        if best is not None and best[1] is not out:
-            # the placement that left the least turn: its state is the history carried on
-            out, self._rolls = best[1], best[2]
-            self.anchors = out[0].anchors  # type: ignore[assignment]
-            self.positions.update(
-                {p.name: out[0].plane_positions[p.name] for p in self.scene.planes if p.driven}
-            )
-        return out
-
-    def _solve_placed(
+    def solve_placed(
         self, t: float, angles: dict[str, float], callback: Callable[[IterationRecord], None] | None
     ) -> tuple[FrameResult, dict, list[Plane], list[ElasticBody]]:
         """Set up and solve the contact at time ``t``, the objects where they are placed now."""
@@ -462,9 +435,14 @@ class GraspRun:
         if not self._started:
             self._started = True
             check_overlaps(t, bodies, sc.planes, settings.gap_tolerance)
-        result = solve_frame(
-            bodies, pairs, planes, settings, callback=callback, anchors=self.anchors
-        )
+        if any(b.finite for b in bodies):
+            result, extra["newton"] = self._solve_finite(
+                t, bodies, pairs, planes, settings, callback
+            )
+        else:
+            result = solve_frame(
+                bodies, pairs, planes, settings, callback=callback, anchors=self.anchors
+            )
         # carried as returned, converged or not: the history is what was solved
         self.anchors = result.anchors  # type: ignore[assignment]
         driven = {p.name for p in sc.planes if p.driven}
@@ -473,6 +451,36 @@ class GraspRun:
         planes = [pl.moved(self.positions[pl.name]) if pl.name in driven else pl for pl in planes]
         result.timings["setup"] = setup
         return result, extra, planes, bodies
+
+    def _solve_finite(
+        self,
+        t: float,
+        bodies: list[ElasticBody],
+        pairs: list[ContactPair],
+        planes: list[Plane],
+        settings: ContactSettings,
+        callback: Callable[[IterationRecord], None] | None,
+    ) -> tuple[FrameResult, dict]:
+        """Steps 2 to 5 by Newton's method on the neo-Hookean bodies (:mod:`contact.solver.finite`).
+
+        Each starts where the last frame left it: an object turned with its placement,
+        the hand when its pose is the same. The result's displacements are the totals
+        from each body's reference; its timings the Newton loop's. Also Newton's figures.
+        """
+        turn = {o.name: self.placement(o, t)[:3, :3] for o in self.objects}
+        follower = {o.name: o.follower for o in self.objects}
+        solved = [FiniteBody.of(b, follower.get(b.name)) if b.finite else b for b in bodies]
+        last = {n: u for n, (k, u) in self._u.items() if n != "hand" or k == self._hand_key}
+        start = {n: u if n == "hand" else u @ turn[n].T for n, u in last.items()}
+        fr = solve_finite_frame(
+            solved, pairs, planes, settings, start=start, anchors=self.anchors,
+            callback=callback,
+        )  # fmt: skip
+        for n in (b.name for b in bodies if b.finite):
+            u = fr.displacement[n]
+            self._u[n] = (self._hand_key, u) if n == "hand" else (None, u @ turn[n])
+        newton = {"steps": fr.steps, "converged": fr.converged, "residual": fr.residual}
+        return fr.frame_result(), newton
 
     def _plane(self, spec: PlaneScene, t: float) -> Plane:
         """The plane at ``t``: moved by its offsets, or a force-driven one where it was left.

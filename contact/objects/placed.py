@@ -7,6 +7,9 @@ joint it follows, its weight and external load (the run adds the turn it has rol
 :class:`~contact.solver.body.ElasticBody`, factored once and again only when the
 placement turns it (a translation shares the factorisation). A ``fixed`` object is
 rigid and held by the world: every node prescribed, its reactions the contact forces.
+A ``finite`` (neo-Hookean) object's body is its reference for the finite-strain solve
+(:mod:`contact.solver.finite`), which never factors its linear stiffness: it is not
+assembled. It turns as far as its contacts take it and is never placed anew.
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.sparse as sp
 from numpy.typing import NDArray
 
 import fem
@@ -59,6 +63,11 @@ class SceneObject:
         Rigid, held by the world.
     centre : ndarray, shape (3,)
         The point about which an external load's moment is given, at the scene placement.
+    finite : bool
+        Neo-Hookean, solved at finite strain.
+    follower : tuple of (fem.BoundaryFaces, float) or None
+        A finite hollow ball's internal pressure, on its inner faces, following their
+        deformation (then not in ``loads``).
     """
 
     name: str
@@ -70,13 +79,18 @@ class SceneObject:
     follow: Follow | None = None
     fixed: bool = False
     centre: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
+    finite: bool = False
+    follower: tuple[fem.BoundaryFaces, float] | None = None
     _body: ElasticBody | None = field(default=None, init=False, repr=False)
     _key: bytes = field(default=b"", init=False, repr=False)
 
     @property
     def rolls(self) -> bool:
-        """A free object, placed by its contacts alone: it may roll (neither follows nor fixed)."""
-        return not self.fixed and self.follow is None
+        """A free linear object, placed by its contacts alone: it may roll and be placed anew.
+
+        Neither follows a joint nor fixed; a finite one turns as far as it goes instead.
+        """
+        return not self.fixed and self.follow is None and not self.finite
 
     def transform(self, skeleton: object, pose: Callable | None, t: float) -> NDArray[np.float64]:
         """Its rigid placement at ``t`` from the scene's (4x4): its joint's, if it follows one."""
@@ -117,6 +131,8 @@ class SceneObject:
             if gravity is not None and not self.fixed:
                 loads = loads + fem.gravity_load(mesh, self.material, gravity).reshape(-1, 3)
             prescribed = np.arange(3 * len(x)) if self.fixed else None
+            n = 3 * len(x)
+            finite = self.finite and not self.fixed
             self._body = ElasticBody(
                 self.name,
                 mesh,
@@ -126,7 +142,9 @@ class SceneObject:
                 contact_faces=self.faces,
                 backend=backend,
                 nodal_pressure=self.nodal_pressure,
+                stiffness=sp.csr_matrix((n, n)) if finite else None,
             )
+            self._body.finite = finite
             self._key = key
             return self._loaded(self._body, tf, t, load)
         return self._loaded(self._body.translated(x), tf, t, load)
@@ -145,16 +163,23 @@ class SceneObject:
 
 
 def from_ball(ball: Ball, follow: Follow | None) -> SceneObject:
-    """The scene's ball as an object named ``"ball"``."""
+    """The scene's ball as an object named ``"ball"``.
+
+    A neo-Hookean hollow ball's pressure follows its cavity: a follower load.
+    """
+    finite = ball.spec.model == "neo-hookean"
+    follows = finite and ball.spec.pressure != 0.0
     return SceneObject(
         "ball",
         ball.mesh,
         ball.material,
         ball.outer,
-        ball.loads,
+        np.zeros_like(ball.loads) if follows else ball.loads,
         ball.nodal_pressure,
         follow=follow,
         centre=np.asarray(ball.spec.center, dtype=np.float64),
+        finite=finite,
+        follower=(ball.inner, ball.spec.pressure) if follows else None,
     )
 
 
@@ -180,6 +205,7 @@ def from_scene(spec: ObjectScene, mesh: fem.Mesh, where: str) -> SceneObject:
         follow=spec.follow,
         fixed=spec.fixed,
         centre=placed.points.mean(axis=0),
+        finite=spec.material.finite,
     )
 
 

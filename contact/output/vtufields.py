@@ -26,6 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 import fem
+from fem.hyperelastic import cauchy_stress, log_strain
 from fem.stress import cell_stress, von_mises
 
 from .staging import write_atomic
@@ -55,6 +56,7 @@ UNITS: dict[str, str] = {
     "cone_use": "1",
     "von_mises": "Pa",
     "stress": "Pa",
+    "max_log_strain": "1",
 }
 
 _GRID = b"<UnstructuredGrid>"
@@ -137,6 +139,7 @@ def write_body_vtu(
     region_names: Sequence[str] = (),
     cell_bone: ArrayLike | None = None,
     bone_names: Sequence[str] = (),
+    finite: bool = False,
 ) -> dict[str, NDArray[np.float64]]:
     """Write a body's ``.vtu`` file of a frame, atomically.
 
@@ -162,6 +165,10 @@ def write_body_vtu(
         Names of the region ids and of the bone ids, field data.
     cell_bone : array_like of int, optional
         The bone of each cell, cell data ``bone``.
+    finite : bool
+        A neo-Hookean body: its stress is the law's Cauchy stress on the deformed body
+        (the mean of its Gauss points), and each cell's largest principal logarithmic
+        strain in magnitude is cell data ``max_log_strain``.
 
     Returns
     -------
@@ -176,12 +183,18 @@ def write_body_vtu(
         When the field data cannot be added.
     """
     u = np.asarray(displacement, dtype=np.float64)
-    sigma = cell_stress(mesh, materials, u.ravel(), bbar=bbar, nodal_pressure=nodal_pressure)
+    if finite:
+        sigma = {k: s.mean(axis=1) for k, s in cauchy_stress(mesh, materials, u.ravel()).items()}
+    else:
+        sigma = cell_stress(mesh, materials, u.ravel(), bbar=bbar, nodal_pressure=nodal_pressure)
     vm = {k: von_mises(s) for k, s in sigma.items()}
     cells: dict[str, Any] = {
         "von_mises": vm,
         "stress": {k: s[:, _VOIGT[0], _VOIGT[1]] for k, s in sigma.items()},
     }
+    if finite:
+        logs = log_strain(mesh, u.ravel())
+        cells["max_log_strain"] = {k: np.abs(e).max(axis=(1, 2)) for k, e in logs.items()}
     if cell_bone is not None:
         cells["bone"] = np.asarray(cell_bone, dtype=np.int32)
     support = support or {}

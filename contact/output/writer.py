@@ -108,6 +108,9 @@ class BodyFrame:
         ``bone``.
     bone_names : sequence of str
         Name of each bone id of ``cell_bone``.
+    finite : bool
+        A neo-Hookean body: Cauchy stress on its deformed placement and its log strain
+        (:func:`contact.output.vtufields.write_body_vtu`).
     """
 
     mesh: fem.Mesh
@@ -118,6 +121,7 @@ class BodyFrame:
     region_names: Sequence[str] = ()
     cell_bone: NDArray[np.int64] | None = None
     bone_names: Sequence[str] = ()
+    finite: bool = False
 
 
 @dataclass
@@ -318,6 +322,7 @@ class ResultsWriter:
                     region_names=body.region_names,
                     cell_bone=body.cell_bone,
                     bone_names=body.bone_names,
+                    finite=body.finite,
                 )
             except (fem.MeshError, OSError) as exc:
                 raise OutputError(

@@ -15,7 +15,7 @@ from typing import Any, TypeVar
 from .._toml import TomlReader, join
 from ..errors import SceneError
 from .bounds import out_of_bounds
-from .model import Material
+from .model import MODELS, Material
 
 __all__ = ["SceneReader"]
 
@@ -89,10 +89,13 @@ class SceneReader(TomlReader):
         return v
 
     def material(self, value: Any, path: str, defaults: Material) -> Material:
-        """A ``{E, nu, density}`` table; a missing key takes its value in ``defaults``."""
-        self.table(value, path, optional=("E", "nu", "density"))
+        """A ``{E, nu, density, model}`` table; a missing key takes its value in ``defaults``."""
+        self.table(value, path, optional=("E", "nu", "density", "model"))
         e = self.bounded(value.get("E", defaults.E), f"{path}.E", "modulus", positive=True)
         nu = self.number(value.get("nu", defaults.nu), f"{path}.nu")
         rho = value.get("density", defaults.density)
         rho = self.bounded(rho, f"{path}.density", "density", nonnegative=True)
-        return self.build(path, Material, e, nu, rho)
+        model = defaults.model
+        if "model" in value:
+            model = self.string(value["model"], f"{path}.model", MODELS)
+        return self.build(path, Material, e, nu, rho, model)

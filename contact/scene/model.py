@@ -57,23 +57,38 @@ WINDOW_SIZE = (64, 4096)
 MAX_FORCE = MAX_LOAD_FORCE
 
 
+#: The material models a scene may choose (``model``): small-strain linear elasticity, or
+#: the compressible neo-Hookean law of :mod:`fem.hyperelastic` with the same ``E, nu``.
+MODELS = ("linear", "neo-hookean")
+
+
 @dataclass(frozen=True)
 class Material:
-    """A linear elastic material: Young's modulus (Pa), Poisson's ratio, density (kg/m^3).
+    """An elastic material: Young's modulus (Pa), Poisson's ratio, density (kg/m^3), model.
 
     Checked as :class:`fem.LinearElastic` checks it: ``E > 0``, ``-1 < nu < 0.5``,
-    ``density >= 0``.
+    ``density >= 0``. ``model`` is one of :data:`MODELS`: ``"neo-hookean"`` bodies are
+    solved at finite strain (:mod:`contact.solver.finite`), their small-strain limit the
+    linear model.
     """
 
     E: float
     nu: float
     density: float = 1000.0
+    model: str = "linear"
 
     def __post_init__(self) -> None:
+        if self.model not in MODELS:
+            raise SceneError(f"model = {self.model!r}: must be one of {', '.join(MODELS)}")
         try:
             self.elastic()
         except fem.MaterialError as exc:
             raise SceneError(str(exc)) from None
+
+    @property
+    def finite(self) -> bool:
+        """Solved at finite strain (neo-Hookean)."""
+        return self.model == "neo-hookean"
 
     def elastic(self) -> fem.LinearElastic:
         """The material as :class:`fem.LinearElastic`."""

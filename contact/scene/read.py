@@ -115,7 +115,7 @@ def _read_ball(
     if "material" in b:
         defaults = Material(BallSpec.E, BallSpec.nu, BallSpec.density)
         m = r.material(b["material"], "ball.material", defaults)
-        kw.update(E=m.E, nu=m.nu, density=m.density)
+        kw.update(E=m.E, nu=m.nu, density=m.density, model=m.model)
     try:
         spec = BallSpec(**kw)
     except BallError as exc:

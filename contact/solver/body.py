@@ -23,7 +23,9 @@ class ElasticBody:
 
     ``turns_freely`` (False): the body is a finite-strain body's linearisation
     (:mod:`contact.solver.finite`), whose turn Newton's method carries past the
-    small-rotation bound of a linear body.
+    small-rotation bound of a linear body. ``finite`` (False): the body is the reference
+    of a neo-Hookean body (:meth:`contact.solver.finite.FiniteBody.of`): its stiffness is
+    not the linear one, its results are read at finite strain.
 
     Parameters
     ----------
@@ -66,6 +68,7 @@ class ElasticBody:
     """
 
     turns_freely: bool = False
+    finite: bool = False
 
     def __init__(
         self,

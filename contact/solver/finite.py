@@ -27,8 +27,9 @@ anchors in every step, and force-driven planes are placed by every step's solve.
 from __future__ import annotations
 
 import gc
+import logging
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -44,10 +45,12 @@ from .anchors import Anchors
 from .body import ElasticBody
 from .iteration import solve_frame
 from .pairs import ContactPair
-from .results import FrameResult
+from .results import FrameResult, IterationRecord
 from .settings import ContactSettings
 
 __all__ = ["FiniteBody", "FiniteFrame", "solve_finite_frame"]
+
+log = logging.getLogger(__name__)
 
 #: Newton steps a frame may take.
 MAX_NEWTON = 30
@@ -64,6 +67,9 @@ ANDERSON_FROM = 4
 ANDERSON = 3
 #: Steps that shrink by more than this ratio are Newton's own: they are left whole.
 FAST = 0.05
+#: A free body whose full-tangent steps shrink by less than this ratio from its third
+#: step on takes the material tangent for the rest of the frame (:func:`_linear_rate`).
+SLOW_FULL = 0.3
 
 
 @dataclass(frozen=True)
@@ -85,30 +91,46 @@ class FiniteBody:
     contact_faces: fem.BoundaryFaces | None = None
     supports: Mapping[str, ArrayLike] = field(default_factory=dict)
 
+    @classmethod
+    def of(
+        cls,
+        body: ElasticBody,
+        follower: tuple[fem.BoundaryFaces, float] | None = None,
+    ) -> FiniteBody:
+        """The neo-Hookean body of ``body``'s mesh, materials, supports and loads."""
+        pres = np.flatnonzero(body.fixed_dofs)
+        return cls(
+            body.name, body.mesh, body.materials, prescribed=pres if pres.size else None,
+            loads=body.loads, follower=follower, contact_faces=body.contact_faces,
+            supports=body.supports,
+        )  # fmt: skip
+
     @property
     def free(self) -> bool:
         """True when nothing but contacts holds the body."""
         return self.prescribed is None
 
     def linearised(
-        self, u: NDArray[np.float64], springs: sp.spmatrix | None = None
+        self, u: NDArray[np.float64], springs: sp.spmatrix | None = None, full: bool = True
     ) -> ElasticBody:
         """The body linearised at displacements ``u`` (see the module docstring).
 
         ``springs``: a stiffness added to the tangent (the last closed contacts', see
-        :func:`_springs`).
+        :func:`_springs`). ``full``: the full tangent (with a follower pressure's), else
+        the material tangent alone, positive semidefinite with the rigid modes of the
+        placement as its null space.
         """
-        # a free body: the material tangent, whose null space is exactly its rigid modes
-        tangent = "material" if self.free else "full"
-        state = fem.finite_strain(self.mesh, self.materials, u, tangent=tangent)
+        state = fem.finite_strain(
+            self.mesh, self.materials, u, tangent="full" if full else "material"
+        )
         f_ext = np.zeros(self.mesh.n_dofs) if self.loads is None else self.loads.copy()
         k = state.stiffness
         if self.follower is not None:
             f_p, k_p = follower_pressure(self.mesh, *self.follower, u, closed=True)
             f_ext += f_p
-            if not self.free:
+            if full:
                 k = (k + k_p).tocsr()
-        if springs is not None and not self.free:
+        if springs is not None and springs.nnz and not self.free:
             k = (k + springs).tocsr()
         placed = fem.Mesh(self.mesh.points + u.reshape(-1, 3), self.mesh.cells,
                           self.mesh.regions)
@@ -153,6 +175,17 @@ class FiniteFrame:
     residual: float
     timings: dict[str, float] = field(default_factory=dict)
 
+    def frame_result(self) -> FrameResult:
+        """The frame as a linear frame reads: total displacements, Newton's verdict and timings."""
+        res = self.result
+        return replace(
+            res,
+            displacement={**res.displacement, **self.displacement},
+            converged=self.converged,
+            stop_reason=res.stop_reason if self.converged else self.stop_reason,
+            timings={**self.timings, "total": sum(self.timings.values())},
+        )
+
 
 def solve_finite_frame(
     bodies: Sequence[FiniteBody | ElasticBody],
@@ -163,6 +196,7 @@ def solve_finite_frame(
     start: Mapping[str, ArrayLike] | None = None,
     max_steps: int = MAX_NEWTON,
     anchors: Anchors | None = None,
+    callback: Callable[[IterationRecord], None] | None = None,
 ) -> FiniteFrame:
     """Resolve one frame's contacts with finite-strain bodies by Newton's method.
 
@@ -178,6 +212,8 @@ def solve_finite_frame(
     max_steps : int
     anchors : Anchors, optional
         The previous frame's stick anchors (its ``result.anchors``), for friction.
+    callback : callable, optional
+        Called with each linear frame's iteration records (progress).
 
     Raises
     ------
@@ -196,12 +232,18 @@ def solve_finite_frame(
     history: list[tuple[NDArray, NDArray]] = []
     lin: dict[str, ElasticBody] = {}
     clock = {"linearise": 0.0, "linear frames": 0.0, "checks": 0.0}
-    for step in range(1, max_steps + 1):
+    rigid = {p.name for p in pairs if p.rigid}
+    material_until, slow_full = 0, set()
+    last_move: dict[str, list[float]] = {b.name: [] for b in finite}
+    step = 0
+    while step < max_steps:
+        step += 1
+        full = {b.name: step > material_until and b.name not in slow_full for b in finite}
         # the last step's bodies and their factorisations go before the next are made
         lin = now = paired = None  # type: ignore[assignment]
         gc.collect()
         t0 = time.perf_counter()
-        lin = {b.name: b.linearised(u[b.name], springs.get(b.name)) for b in finite}
+        lin = {b.name: b.linearised(u[b.name], springs.get(b.name), full[b.name]) for b in finite}
         t1 = time.perf_counter()
         clock["linearise"] += t1 - t0
         now = [lin.get(b.name, b) for b in bodies]
@@ -211,14 +253,22 @@ def solve_finite_frame(
             for p in pairs
         ]  # fmt: skip
         try:
-            res = solve_frame(now, paired, planes, settings, anchors=anchors)
+            res = solve_frame(now, paired, planes, settings, anchors=anchors, callback=callback)
         except fem.SolverError as exc:
-            stop = f"a finite body's tangent could not be factored at this strain: {exc}"
-            break
+            res, stop = None, f"a finite body's tangent could not be factored at this strain: {exc}"
         finally:
             t2 = time.perf_counter()
             clock["linear frames"] += t2 - t1
-        springs = {b.name: _springs(b, res, lin[b.name]) for b in finite}
+        if any(full.values()) and (res is None or not (res.converged or res.held is False)):
+            # the full tangent is not positive definite here (a compressed body, a
+            # pressure not yet carried): this step and the next take the material one
+            log.debug("Newton step %d: the full tangent failed (%s): material tangent",
+                      step, stop if res is None else res.stop_reason)
+            material_until, step = step + 1, step - 1
+            continue
+        if res is None:
+            break
+        springs = {b.name: _springs(b, res, lin[b.name], rigid) for b in finite}
         if not res.converged:
             stop = res.stop_reason
             break
@@ -234,7 +284,15 @@ def solve_finite_frame(
             target = mixed.get(b.name, u[b.name] + du) - u[b.name]
             u[b.name], f_int = _stepped(b, u[b.name], target)
             residual = max(residual, _residual(b, u[b.name], f_int, res.contact_force[b.name]))
+            last_move[b.name].append(moves[b.name])
+            if b.free and full[b.name] and _linear_rate(last_move[b.name]):
+                slow_full.add(b.name)
         clock["checks"] += time.perf_counter() - t2
+        log.debug(
+            "Newton step %d: step/size %s, residual %.3g, %d contacts, %s",
+            step, {k: f"{v:.3g}" for k, v in moves.items()}, residual,
+            len(res.contacts.get("node", ())), res.stop_reason,
+        )  # fmt: skip
         if max(moves.values(), default=0.0) <= STEP_TOL and residual <= RESIDUAL:
             stop = "converged"
             return FiniteFrame(res, _all(bodies, u, res), step, True, stop, residual, clock)
@@ -245,19 +303,25 @@ def solve_finite_frame(
     return FiniteFrame(res, _all(bodies, u, res), step, False, stop, residual, clock)
 
 
-def _springs(body: FiniteBody, res: FrameResult, lin: ElasticBody) -> sp.csr_matrix:
-    """Springs along the normals of ``body``'s closed contacts, for the next linearisation.
+def _springs(
+    body: FiniteBody, res: FrameResult, lin: ElasticBody, rigid: set[str]
+) -> sp.csr_matrix:
+    """Springs along the normals of ``body``'s contacts closed on planes, for the next step.
 
     A compressed body's tangent alone is not positive definite (a column fixed at its
     base sways); its contacts hold it, but its compliance is factored without them. A
-    spring ``k n n^T`` at each node the last solve closed (``k`` the stiffness's largest
-    diagonal entry) holds it there. The step it changes is only the part along a closed
-    row, which that row fixes anyway: against a plane the step is Newton's; the springs'
-    force is a step's, so nothing of them is left at convergence (``du = 0``).
+    spring ``k n n^T`` at each node the last solve closed on a plane (``k`` the
+    stiffness's largest diagonal entry, ``rigid`` the names of the pairs with a plane)
+    holds it there. The step it changes is only the part along a closed row, which that
+    row fixes anyway, so the step is Newton's; the springs' force is a step's, so nothing
+    of them is left at convergence (``du = 0``). Against another body a row fixes the two
+    bodies' relative motion only: a spring there would hold the node against the other
+    body's motion, and no spring is put.
     """
     c = res.contacts
     n = body.mesh.n_dofs
-    mine = np.array([str(p).split("/")[0] == body.name for p in c.get("pair", [])], bool)
+    pairs = [str(p) for p in c.get("pair", [])]
+    mine = np.array([p in rigid and p.split("/")[0] == body.name for p in pairs], bool)
     if not mine.any():
         return sp.csr_matrix((n, n))
     nodes = np.asarray(c["node"])[mine]
@@ -268,6 +332,17 @@ def _springs(body: FiniteBody, res: FrameResult, lin: ElasticBody) -> sp.csr_mat
     rows = np.repeat(dofs, 3, axis=1).ravel()
     cols = np.tile(dofs, 3).ravel()
     return sp.csr_matrix((blocks.ravel(), (rows, cols)), shape=(n, n))
+
+
+def _linear_rate(moves: list[float]) -> bool:
+    """A free body's full-tangent steps shrink at a linear rate: its turn moves its forces.
+
+    The free-body solve takes the full tangent's rigid modes as its null space, which
+    they are only where no force acts; under a squeeze the steps then shrink by a
+    constant ratio, and the material tangent (its null space exactly the rigid modes,
+    with Anderson mixing) does better.
+    """
+    return len(moves) >= 3 and moves[-1] > SLOW_FULL * moves[-2]
 
 
 def _slow(history) -> bool:

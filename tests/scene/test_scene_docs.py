@@ -59,11 +59,15 @@ def _material(m: Any) -> dict[str, float]:
 OWNERS: dict[str, dict[str, Any]] = {
     "[scene]": _defaults(Scene, ("name", "description", "gravity")),
     "[ball]": {
-        **{k: v for k, v in _defaults(BallSpec).items() if k not in ("E", "nu", "density")},
+        **{
+            k: v
+            for k, v in _defaults(BallSpec).items()
+            if k not in ("E", "nu", "density", "model")
+        },
         "material": _material(BallSpec),
         "friction": Scene.ball_friction,
     },
-    "material": _defaults(BallSpec, ("E", "nu", "density")),
+    "material": _defaults(BallSpec, ("E", "nu", "density", "model")),
     "[ball.follow]": _defaults(Follow),
     "[[object]]": {
         **{k: v for k, v in _defaults(ObjectScene).items() if k != "material"},

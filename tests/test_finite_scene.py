@@ -1,0 +1,121 @@
+"""A scene's neo-Hookean bodies: the ``model`` key, the run's finite frames and their results.
+
+A free ball squeezed by two force-driven frictional pads is solved linear and neo-Hookean
+from the same scene: at a small squeeze the two agree; at a large one the finite run
+converges by Newton, is held, writes Cauchy stress and log strain, and gives no strain
+warning. A hollow ball's pressure becomes a follower load that is the linear pressure
+load at rest.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from pathlib import Path
+
+import meshio
+import numpy as np
+import pytest
+
+from contact.ball import BallSpec, make_ball
+from contact.errors import SceneError
+from contact.grasp import main
+from contact.objects.placed import from_ball
+from contact.run import GraspRun
+from contact.scene import load_scene
+from fem.follower import follower_pressure
+
+PADS = """\
+[scene]
+gravity = [0.0, 0.0, {g}]
+
+[ball]
+radius = 0.02
+element = "hex"
+mesh_size = 0.005
+material = {{ E = 1.0e6, nu = 0.45, density = 1100.0{model} }}
+
+[[plane]]
+name = "left"
+point = [-0.0202, 0.0, 0.0]
+normal = [1.0, 0.0, 0.0]
+force = [[0.0, {force}]]
+friction = 0.5
+
+[[plane]]
+name = "right"
+point = [0.0202, 0.0, 0.0]
+normal = [-1.0, 0.0, 0.0]
+force = [[0.0, {force}]]
+friction = 0.5
+
+[frames]
+times = [0.0, 1.0]
+
+[output]
+directory = "{out}"
+pictures = false
+"""
+
+
+def _scene(tmp_path: Path, force: float, finite: bool, name: str, g: float = -9.81) -> Path:
+    model = ', model = "neo-hookean"' if finite else ""
+    path = tmp_path / f"{name}.toml"
+    out = tmp_path / name
+    path.write_text(PADS.format(model=model, force=force, out=out.as_posix(), g=g))
+    return path
+
+
+def test_the_model_key_is_read_and_checked(tmp_path: Path) -> None:
+    sc = load_scene(_scene(tmp_path, 1.0, True, "a"))
+    assert sc.ball.model == "neo-hookean"
+    bad = tmp_path / "bad.toml"
+    bad.write_text(_scene(tmp_path, 1.0, True, "b").read_text().replace("neo-hookean", "rubber"))
+    with pytest.raises(SceneError, match=r"ball\.material\.model"):
+        load_scene(bad)
+
+
+def test_a_small_squeeze_is_the_linear_one(tmp_path: Path) -> None:
+    # 0.05 N a pad, no weight: a strain of a few 1e-3, where the law is the linear model
+    moved = {}
+    for finite in (False, True):
+        run = GraspRun(load_scene(_scene(tmp_path, 0.05, finite, f"s{finite}", g=0.0)))
+        res, extra, _, bodies = run.frame(0.0)
+        assert res.converged and res.held is not False, res.stop_reason
+        assert ("newton" in extra) == finite and bodies[0].finite == finite
+        moved[finite] = res.plane_positions["left"][0]
+    assert moved[True] == pytest.approx(moved[False], rel=0.01)
+
+
+def test_a_hard_squeeze_runs_at_finite_strain(tmp_path: Path, caplog) -> None:
+    # 6 N a pad squeezes the soft ball past 10 % strain
+    scene = _scene(tmp_path, 6.0, True, "hard")
+    with caplog.at_level(logging.WARNING):
+        assert main([str(scene)]) == 0
+    assert "strain" not in caplog.text  # the warning is the linear model's
+    summary = json.loads((tmp_path / "hard" / "summary.json").read_text())
+    for frame in summary["frames"]:
+        assert frame["newton"]["converged"] and frame["newton"]["steps"] <= 12
+        assert frame["held"] is True
+    strain = summary["frames"][-1]["max_strain"]["ball"]
+    assert 0.1 < strain < 0.5
+    vtu = meshio.read(tmp_path / "hard" / "ball_0001.vtu")
+    logs = vtu.cell_data["max_log_strain"][0]
+    assert logs.max() == pytest.approx(strain)
+    # the pads' squeeze is carried by the ball's Cauchy stress: compressive along x
+    sigma = vtu.cell_data["stress"][0]
+    assert np.median(sigma[:, 0]) < 0
+
+
+def test_a_hollow_balls_pressure_follows_its_cavity() -> None:
+    spec = BallSpec(0.02, kind="hollow", thickness=0.008, pressure=2e4, mesh_size=0.004,
+                    model="neo-hookean")  # fmt: skip
+    ball = make_ball(spec)
+    obj = from_ball(ball, None)
+    assert obj.finite and not obj.rolls and not obj.loads.any()
+    faces, p = obj.follower
+    f = follower_pressure(ball.mesh, faces, p, np.zeros(ball.mesh.n_dofs))[0]
+    assert np.abs(f - ball.loads).max() <= 1e-9 * np.abs(ball.loads).max()
+    linear = from_ball(make_ball(BallSpec(0.02, kind="hollow", thickness=0.008, pressure=2e4,
+                                          mesh_size=0.004)), None)  # fmt: skip
+    assert linear.follower is None and not linear.finite and linear.rolls
