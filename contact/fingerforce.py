@@ -30,8 +30,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 __all__ = [
-    "ANGLE_RESOLUTION", "FIRST_PRESS", "GROWTH", "MAX_STEPS", "Drive", "Target", "drive",
-    "finger_forces", "guess", "remember",
+    "ANGLE_RESOLUTION",
+    "FIRST_PRESS",
+    "GROWTH",
+    "MAX_STEPS",
+    "Drive",
+    "Target",
+    "drive",
+    "finger_forces",
+    "force_targets",
+    "guess",
+    "remember",
 ]  # fmt: skip
 
 #: The first trial presses each force-driven finger this far (m) past first contact.
@@ -327,3 +336,25 @@ def remember(
     """Keep each joint's first contact, angle found and force for the frame's next search."""
     for j, d in drives.items():
         memory[(t, j)] = (float(touching[j]), d.angle, d.reached)
+
+
+def force_targets(
+    hand: Any, flexions: Sequence[Any], pressed: Mapping[str, float], parts: Callable
+) -> list[Target]:
+    """The force-driven flexions among ``flexions`` (:class:`contact.scene.model.AutoFlex`).
+
+    Those whose joint reached first contact (``pressed``); each with its joint's upper
+    limit and the hand part of its point (``parts()``: the part of every flesh node).
+    """
+    out = []
+    limits = hand.skeleton.limits
+    for af in flexions:
+        if af.force is None or af.joint not in pressed:
+            continue
+        if isinstance(af.point, str):
+            part = hand.part_names.index(af.point)
+        else:
+            part = int(parts()[af.point])
+        lim = limits[af.joint][1]
+        out.append(Target(af.joint, float(af.force), af.force_tolerance, lim, part))
+    return out

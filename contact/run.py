@@ -36,7 +36,7 @@ from numpy.typing import NDArray
 import fem
 
 from .ball import Ball, make_ball, nodal_pressure
-from .fingerforce import FIRST_PRESS, Target, drive, finger_forces, guess, remember
+from .fingerforce import FIRST_PRESS, drive, finger_forces, force_targets, guess, remember
 from .geometry.plane import Plane
 from .geometry.surfacequery import TriangleSurface
 from .hand.autoflex import auto_flex, mesh_distance
@@ -347,7 +347,9 @@ class GraspRun:
         t0 = time.perf_counter()
         angles = self.angles(t) if self.hand is not None else {}
         posing = time.perf_counter() - t0  # set-up too: the automatic flexions' search
-        targets = self._targets(t)
+        targets = [] if self.hand is None else force_targets(
+            self.hand, self._flexions(t), self._pressed, self._parts
+        )  # fmt: skip
         if not targets:
             out = solve_rolled(self, t, angles, callback)
             out[0].timings["setup"] += posing
@@ -376,23 +378,6 @@ class GraspRun:
             result = dataclasses.replace(result, converged=False, stop_reason=stop)
         return result, extra, planes, bodies
 
-    def _targets(self, t: float) -> list[Target]:
-        """The force-driven flexions at ``t``."""
-        if self.hand is None:
-            return []
-        out = []
-        limits = self.hand.skeleton.limits
-        for af in self._flexions(t):
-            if af.force is None or af.joint not in self._pressed:
-                continue
-            if isinstance(af.point, str):
-                part = self.hand.part_names.index(af.point)
-            else:
-                part = int(self._parts()[af.point])
-            lim = limits[af.joint][1]
-            out.append(Target(af.joint, float(af.force), af.force_tolerance, lim, part))
-        return out
-
     def _parts(self) -> NDArray[np.int64]:
         """The hand part of every flesh node."""
         assert self.hand is not None
@@ -415,7 +400,7 @@ class GraspRun:
         extra: dict = {}
         if self.hand is not None:
             hand = self.hand_body(angles)
-            check_bones(self.hand, self._pose, objects, t)  # type: ignore[arg-type]
+            check_bones(self.hand, self._pose, objects, t, self._starts(t))  # type: ignore[arg-type]
             bodies.append(hand)
             for o in objects:
                 mu = sc.friction("hand", o.name)
@@ -470,10 +455,8 @@ class GraspRun:
         turn = {o.name: self.placement(o, t)[:3, :3] for o in self.objects}
         follower = {o.name: o.follower for o in self.objects}
         solved = [FiniteBody.of(b, follower.get(b.name)) if b.finite else b for b in bodies]
-        last = {n: u for n, (k, u) in self._u.items() if n != "hand" or k == self._hand_key}
-        start = {n: u if n == "hand" else u @ turn[n].T for n, u in last.items()}
         fr = solve_finite_frame(
-            solved, pairs, planes, settings, start=start, anchors=self.anchors,
+            solved, pairs, planes, settings, start=self._starts(t), anchors=self.anchors,
             callback=callback,
         )  # fmt: skip
         for n in (b.name for b in bodies if b.finite):
@@ -481,6 +464,15 @@ class GraspRun:
             self._u[n] = (self._hand_key, u) if n == "hand" else (None, u @ turn[n])
         newton = {"steps": fr.steps, "converged": fr.converged, "residual": fr.residual}
         return fr.frame_result(), newton
+
+    def _starts(self, t: float) -> dict[str, NDArray[np.float64]]:
+        """Where each finite body starts the frame at ``t``: where the last one left it.
+
+        An object turned with its placement; the hand where its pose is the same.
+        """
+        turn = {o.name: self.placement(o, t)[:3, :3] for o in self.objects}
+        last = {n: u for n, (k, u) in self._u.items() if n != "hand" or k == self._hand_key}
+        return {n: u if n == "hand" else u @ turn[n].T for n, u in last.items()}
 
     def _plane(self, spec: PlaneScene, t: float) -> Plane:
         """The plane at ``t``: moved by its offsets, or a force-driven one where it was left.

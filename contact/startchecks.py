@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import logging
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -26,19 +26,30 @@ log = logging.getLogger(__name__)
 OVERLAP_REFUSED = 0.1
 
 
-def check_bones(hand: Hand, pose: Pose, objects: Sequence[ElasticBody], t: float) -> None:
+def check_bones(
+    hand: Hand,
+    pose: Pose,
+    objects: Sequence[ElasticBody],
+    t: float,
+    displacement: Mapping[str, NDArray[np.float64]] | None = None,
+) -> None:
     """Refuse an object that starts inside a bone of the posed hand: no contact resolves it.
 
     Its contact nodes inside a bone's closed surface (winding number), for the ball and
     any ``[[object]]`` alike; a bone's surface is built only where some object's nodes lie
-    in its bounding box.
+    in its bounding box. ``displacement``: where a finite object starts the frame, from
+    its reference (flat or ``(N, 3)``).
 
     Raises
     ------
     InputError
         Naming the frame, the object and the bone.
     """
-    xs = [o.mesh.points[o.contact_nodes] for o in objects]
+    moved = displacement or {}
+    xs = [
+        (o.mesh.points + np.reshape(moved.get(o.name, np.zeros(3)), (-1, 3)))[o.contact_nodes]
+        for o in objects
+    ]
     for name, surf in hand.bones.items():
         tf = pose.transforms[name]
         pts = np.asarray(surf.points) @ tf[:3, :3].T + tf[:3, 3]

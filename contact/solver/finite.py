@@ -67,6 +67,12 @@ ANDERSON_FROM = 4
 ANDERSON = 3
 #: Steps that shrink by more than this ratio are Newton's own: they are left whole.
 FAST = 0.05
+#: The largest turn (rad) of a free body in one Newton step: a longer step is shortened.
+MAX_TURN = 0.1
+#: Newton stops as stalled where the residual's least value over its last ``STALL``
+#: steps is not half the least before them: a cycling contact set, a linear rate too
+#: slow to finish (a frame is then cut into smaller steps of time by the run).
+STALL = 6
 #: A free body whose full-tangent steps shrink by less than this ratio from its third
 #: step on takes the material tangent for the rest of the frame (:func:`_linear_rate`).
 SLOW_FULL = 0.3
@@ -235,10 +241,13 @@ def solve_finite_frame(
     rigid = {p.name for p in pairs if p.rigid}
     material_until, slow_full = 0, set()
     last_move: dict[str, list[float]] = {b.name: [] for b in finite}
+    residuals: list[float] = []
+    swung = 0
     step = 0
     while step < max_steps:
         step += 1
         full = {b.name: step > material_until and b.name not in slow_full for b in finite}
+
         # the last step's bodies and their factorisations go before the next are made
         lin = now = paired = None  # type: ignore[assignment]
         gc.collect()
@@ -281,7 +290,12 @@ def solve_finite_frame(
         for b in finite:
             du = steps_now[b.name]
             moves[b.name] = float(np.abs(du).max(initial=0.0)) / size[b.name]
-            target = mixed.get(b.name, u[b.name] + du) - u[b.name]
+            if b.name in mixed:
+                target = mixed[b.name] - u[b.name]
+            else:
+                target = _turned(b, u[b.name], du) if b.free else du
+                if target.size and np.abs(target - du).max() > 0.5 * np.abs(du).max():
+                    swung = step  # shortened: the body is still on its way
             u[b.name], f_int = _stepped(b, u[b.name], target)
             residual = max(residual, _residual(b, u[b.name], f_int, res.contact_force[b.name]))
             last_move[b.name].append(moves[b.name])
@@ -296,6 +310,11 @@ def solve_finite_frame(
         if max(moves.values(), default=0.0) <= STEP_TOL and residual <= RESIDUAL:
             stop = "converged"
             return FiniteFrame(res, _all(bodies, u, res), step, True, stop, residual, clock)
+        residuals.append(residual)
+        stalled = min(residuals[-STALL:]) > 0.5 * min(residuals[:-STALL], default=np.inf)
+        if len(residuals) > 2 * STALL and step - swung > STALL and stalled:
+            stop = f"Newton stalled at residual {residual:.2g} after {step} steps"
+            break
     if res is None:
         raise ContactError(stop)
     if stop == "iteration limit":
@@ -377,6 +396,35 @@ def _anderson(history, u, steps, names, depth: int = ANDERSON):
         out[n] = new[k : k + m]
         k += m
     return out
+
+
+def _turned(body: FiniteBody, u: NDArray, du: NDArray) -> NDArray:
+    """A free body's step with its rigid turn taken as a finite rotation.
+
+    The linearised step turns the body by ``omega x r``, which stretches it by about
+    ``|omega|^2 / 2``: a strain the next step must undo. The step's rigid part
+    ``t + omega x (x - c)`` (a least-squares fit about the centroid ``c`` of the placement
+    ``x``) is taken as ``x -> c + t + R(omega) (x - c + d)`` instead, ``d`` the rest of
+    the step, ``R`` Rodrigues' rotation: the same to first order, no stretch from the turn.
+    A step that turns the body by more than :data:`MAX_TURN` is shortened to it.
+    """
+    x = body.mesh.points + u.reshape(-1, 3)
+    d = du.reshape(-1, 3)
+    t, omega = fem.rigid_part(x, d)
+    angle = float(np.linalg.norm(omega))
+    if angle > MAX_TURN:
+        # a body far from its balance (a ball that swings to hang below a pinch): the
+        # linearisation is trusted for MAX_TURN at a time
+        short = MAX_TURN / angle
+        d, t, omega, angle = d * short, t * short, omega * short, MAX_TURN
+    if angle <= 1e-8:
+        return d.ravel()
+    c = x.mean(axis=0)
+    k = omega / angle
+    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    rot = np.eye(3) + np.sin(angle) * kx + (1.0 - np.cos(angle)) * kx @ kx
+    rest = d - t - np.cross(omega, x - c)
+    return ((x - c + rest) @ rot.T + c + t - x).ravel()
 
 
 def _stepped(body: FiniteBody, u: NDArray, du: NDArray) -> tuple[NDArray, NDArray]:

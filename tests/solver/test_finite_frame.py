@@ -6,7 +6,7 @@ import pytest
 
 import fem
 from contact.geometry.plane import Plane
-from contact.solver import ContactSettings, solve_frame
+from contact.solver import ContactSettings, finite, solve_frame
 from contact.solver.body import ElasticBody
 from contact.solver.finite import FiniteBody, solve_finite_frame
 from contact.solver.pairs import ContactPair
@@ -181,3 +181,28 @@ def test_at_a_small_load_a_free_ball_between_plates_is_the_linear_one():
     assert f == pytest.approx(f_lin, rel=1e-3)
     u, u_lin = out.displacement["ball"], ref.displacement["ball"]
     assert np.abs(u - u_lin).max() <= 1e-3 * np.abs(u_lin).max()
+
+
+@pytest.mark.parametrize("angle", [0.05, 0.6])
+def test_a_free_bodys_turn_is_taken_as_a_finite_rotation(angle):
+    # the linearised step omega x r stretches a body by |omega|^2 / 2; the step taken
+    # turns it rigidly (no strain), by at most MAX_TURN
+    mesh = fem.box_mesh((H, 2 * H, H), (2, 2, 2))
+    body = FiniteBody("block", mesh, MAT)
+    u = np.zeros(mesh.n_dofs)
+    c = mesh.points.mean(axis=0)
+    omega = angle * np.array([1.0, 2.0, 2.0]) / 3.0
+    move = np.array([1e-3, 0.0, -2e-3])
+    du = (move + np.cross(omega, mesh.points - c)).ravel()
+    step = finite._turned(body, u, du)
+    strain = fem.hyperelastic.log_strain(mesh, step)
+    assert max(np.abs(e).max() for e in strain.values()) <= 1e-12
+    taken = min(angle, finite.MAX_TURN)
+    x = mesh.points + step.reshape(-1, 3)
+    turn = np.linalg.svd((x - x.mean(axis=0)).T @ (mesh.points - c))
+    rot = turn[0] @ turn[2]
+    assert np.arccos((np.trace(rot) - 1) / 2) == pytest.approx(taken, rel=1e-9)
+    assert x.mean(axis=0) - c == pytest.approx(move * taken / angle, abs=1e-12)
+    # a small turn is the linearised step to second order
+    if angle < finite.MAX_TURN:
+        assert np.abs(step - du).max() <= angle**2 * H
