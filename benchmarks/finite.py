@@ -181,8 +181,10 @@ def _goals(rows: list[dict]) -> str:
         "",
         "Observed order of the plate force over the meshes: "
         + ("-" if order is None else f"{order:.2f}")
-        + ". A free ball takes the material tangent (a modified Newton); each Newton step"
-        " is a whole linear frame (assembly of the tangent, factorisation, contact solve).",
+        + ". A free ball takes the full tangent until its steps shrink at a linear rate (its"
+        " turn moves its forces), then the material one with Anderson mixing; each Newton"
+        " step is a whole linear frame (assembly of the tangent, factorisation, contact"
+        " solve).",
         "",
         "Where the finite frames' time goes (s): "
         + "; ".join(
@@ -191,8 +193,8 @@ def _goals(rows: list[dict]) -> str:
             for r in rows
         )
         + ". Each step is a linearisation (the tangent's assembly and the body's solver"
-        " set up anew) and a whole linear frame: fewer steps (the free body's modified"
-        " Newton takes 6 to 8 where Newton takes 4) and cheaper ones (the ordering, the"
-        " zone and the solver's set-up kept from step to step) are what is left.",
+        " set up anew) and a whole linear frame: fewer steps (a free body's turn in the"
+        " full tangent) and cheaper ones (the ordering, the zone and the solver's set-up"
+        " kept from step to step) are what is left.",
     ]
     return "\n".join(lines)
