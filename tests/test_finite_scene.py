@@ -1,10 +1,11 @@
 """A scene's neo-Hookean bodies: the ``model`` key, the run's finite frames and their results.
 
-A free ball squeezed by two force-driven frictional pads is solved linear and neo-Hookean
-from the same scene: at a small squeeze the two agree; at a large one the finite run
-converges by Newton, is held, writes Cauchy stress and log strain, and gives no strain
-warning. A hollow ball's pressure becomes a follower load that is the linear pressure
-load at rest.
+The index of finger_press pressing a little into a ball gives the linear forces, its
+bones carrying what its skin takes. A free ball squeezed by two force-driven frictional
+pads is solved linear and neo-Hookean from the same scene: at a small squeeze the two
+agree; at a large one the finite run converges by Newton, is held, writes Cauchy stress
+and log strain, and gives no strain warning. A hollow ball's pressure becomes a
+follower load that is the linear pressure load at rest.
 """
 
 from __future__ import annotations
@@ -24,6 +25,8 @@ from contact.objects.placed import from_ball
 from contact.run import GraspRun
 from contact.scene import load_scene
 from fem.follower import follower_pressure
+
+ROOT = Path(__file__).resolve().parents[1]
 
 PADS = """\
 [scene]
@@ -119,3 +122,33 @@ def test_a_hollow_balls_pressure_follows_its_cavity() -> None:
     linear = from_ball(make_ball(BallSpec(0.02, kind="hollow", thickness=0.008, pressure=2e4,
                                           mesh_size=0.004)), None)  # fmt: skip
     assert linear.follower is None and not linear.finite and linear.rolls
+
+
+def test_a_finite_finger_press_is_the_linear_one_at_a_small_press(tmp_path: Path) -> None:
+    # the index presses 0.05 mm into a ball in a frictionless bowl: flesh and ball
+    # neo-Hookean give the linear forces; the bones carry what the skin takes. The law's
+    # volume is the nodes' averaged one: the linear flesh's likewise (plain linear
+    # tetrahedra at nu 0.45 lock, and press 16 % harder here)
+    text = (ROOT / "examples" / "finger_press.toml").read_text()
+    text = text.replace("press = 0.0005 ", "press = 0.00005")
+    flesh = "flesh = { E = 5.0e4, nu = 0.45 }"
+    text = text.replace(flesh, flesh + "\nnodal_pressure = true")
+    text = text.replace('"results/finger_press"', f'"{tmp_path.as_posix()}"')
+    forces = {}
+    for finite in (False, True):
+        scene = text
+        if finite:
+            model = ', model = "neo-hookean" }'
+            scene = scene.replace("density = 1100.0 }", "density = 1100.0" + model)
+            scene = scene.replace("nu = 0.45 }", "nu = 0.45" + model)
+        path = tmp_path / f"press_{finite}.toml"
+        path.write_text(scene)
+        run = GraspRun(load_scene(path))
+        res, _, _, bodies = run.frame(0.5)
+        assert res.converged, res.stop_reason
+        assert [b.finite for b in bodies] == [finite, finite]
+        skin = res.contact_force["hand"].sum(axis=0)
+        bones = sum(np.asarray(f) for f in res.support_forces["hand"].values())
+        assert np.abs(skin + bones).max() <= 1e-6 * np.linalg.norm(skin)
+        forces[finite] = skin
+    assert np.linalg.norm(forces[True] - forces[False]) <= 0.03 * np.linalg.norm(forces[False])

@@ -297,7 +297,9 @@ def solve_finite_frame(
                 if target.size and np.abs(target - du).max() > 0.5 * np.abs(du).max():
                     swung = step  # shortened: the body is still on its way
             u[b.name], f_int = _stepped(b, u[b.name], target)
-            residual = max(residual, _residual(b, u[b.name], f_int, res.contact_force[b.name]))
+            held = b.free and res.friction is None  # frictionless: its turn held
+            forces = res.contact_force[b.name]
+            residual = max(residual, _residual(b, u[b.name], f_int, forces, held))
             last_move[b.name].append(moves[b.name])
             if b.free and full[b.name] and _linear_rate(last_move[b.name]):
                 slow_full.add(b.name)
@@ -442,10 +444,15 @@ def _stepped(body: FiniteBody, u: NDArray, du: NDArray) -> tuple[NDArray, NDArra
     return u, fem.finite_strain(body.mesh, body.materials, u, stiffness=False).force
 
 
-def _residual(body: FiniteBody, u: NDArray, f_int: NDArray, contact: NDArray) -> float:
+def _residual(
+    body: FiniteBody, u: NDArray, f_int: NDArray, contact: NDArray, held: bool = False
+) -> float:
     """The free DOFs' forces out of balance at ``u``, relative to the largest force.
 
-    ``f_int`` the internal forces there, ``contact`` the contact forces.
+    ``f_int`` the internal forces there, ``contact`` the contact forces. ``held``: a free
+    body whose turn the linear frames hold (frictionless contacts, which the linear model
+    lets turn a ball no more than they can): the moment they hold it with is a support's
+    reaction, left out as the prescribed DOFs' are.
     """
     f_ext = np.zeros_like(f_int) if body.loads is None else body.loads.copy()
     if body.follower is not None:
@@ -453,6 +460,9 @@ def _residual(body: FiniteBody, u: NDArray, f_int: NDArray, contact: NDArray) ->
     r = f_int - f_ext - np.asarray(contact, float).ravel()
     if body.prescribed is not None:
         r[body.prescribed] = 0.0
+    if held:
+        turns = fem.rigid_body_modes(body.mesh.points + u.reshape(-1, 3))[:, 3:]
+        r -= turns @ (turns.T @ r)
     scale = max(float(np.abs(f_int).max()), float(np.abs(f_ext).max(initial=0.0)),
                 float(np.abs(contact).max(initial=0.0)), 1e-300)
     return float(np.abs(r).max()) / scale
