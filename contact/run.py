@@ -111,6 +111,8 @@ class GraspRun:
     frame_time: float | None = field(default=None, init=False, repr=False)
     placed_anew: dict[str, NDArray[np.float64]] = field(default_factory=dict, init=False)
     _started: bool = field(default=False, init=False, repr=False)
+    # the frame time whose input pose was checked against the bones (trials are not input)
+    _bones_at: float | None = field(default=None, init=False, repr=False)
     # each finite body's last displacement (the hand's with its pose; an object's unturned)
     _u: dict[str, tuple] = field(default_factory=dict, init=False, repr=False)
 
@@ -277,12 +279,8 @@ class GraspRun:
         out = GraspRun.__new__(GraspRun)
         out.__dict__.update(self.__dict__)
         out.scene = scene
-        out.anchors = None
-        out.placed_anew = {}
-        out.last_time = None
-        out._started = False
-        out.positions = {}
-        out._u = {}
+        out.anchors, out.last_time, out._started, out._bones_at = None, None, False, None
+        out.placed_anew, out.positions, out._u = {}, {}, {}
         return out
 
     # --- one frame -----------------------------------------------------------------
@@ -400,7 +398,9 @@ class GraspRun:
         extra: dict = {}
         if self.hand is not None:
             hand = self.hand_body(angles)
-            check_bones(self.hand, self._pose, objects, t, self._starts(t))  # type: ignore[arg-type]
+            if self._bones_at != t:
+                check_bones(self.hand, self._pose, objects, t, self._starts(t))  # type: ignore[arg-type]
+                self._bones_at = t
             bodies.append(hand)
             for o in objects:
                 mu = sc.friction("hand", o.name)
