@@ -152,3 +152,16 @@ def test_a_finite_finger_press_is_the_linear_one_at_a_small_press(tmp_path: Path
         assert np.abs(skin + bones).max() <= 1e-6 * np.linalg.norm(skin)
         forces[finite] = skin
     assert np.linalg.norm(forces[True] - forces[False]) <= 0.03 * np.linalg.norm(forces[False])
+
+
+def test_a_round_off_change_leaves_the_finite_verdict(tmp_path: Path) -> None:
+    # the hard squeeze with the pads' force changed by 1e-15 relative: the same verdict,
+    # the same Newton outcome, the same squeeze
+    seen = []
+    for k, force in enumerate((6.0, 6.0 * (1 + 1e-15), 6.0 * (1 - 1e-15))):
+        run = GraspRun(load_scene(_scene(tmp_path, force, True, f"r{k}")))
+        res, extra, _, _ = run.frame(0.0)
+        seen.append((res.held, res.converged, extra["newton"]["converged"]))
+        seen[-1] += (res.plane_positions["left"][0],)
+    assert all(s[:3] == (True, True, True) for s in seen)
+    assert max(abs(s[3] - seen[0][3]) for s in seen) <= 1e-8 * abs(seen[0][3])
