@@ -19,7 +19,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-import contact.run
+import contact.run.grasprun
 from contact.leastgrip import judge, least_grip
 from contact.run import GraspRun
 from contact.scene.read import load_scene
@@ -50,13 +50,13 @@ COLUMNS = (
 def _search(scene: Any, name: str, case: str) -> dict[str, Any]:
     """The scene's own run, then the search from it, counting contact solves."""
     calls = [0]
-    solve = contact.run.solve_frame
+    solve = contact.run.grasprun.solve_frame
 
     def counted(*args: Any, **kw: Any) -> Any:
         calls[0] += 1
         return solve(*args, **kw)
 
-    contact.run.solve_frame = counted
+    contact.run.grasprun.solve_frame = counted
     try:
         run = GraspRun(scene)
         times = list(scene.frames)
@@ -68,7 +68,7 @@ def _search(scene: Any, name: str, case: str) -> dict[str, Any]:
         found = least_grip(run, times, first=first)
         seconds = time.perf_counter() - t0
     finally:
-        contact.run.solve_frame = solve
+        contact.run.grasprun.solve_frame = solve
     lo, hi = found.lo, found.hi
     return {
         "scene": name,

@@ -186,7 +186,7 @@ def test_a_force_that_jumps_over_the_target_is_said_so() -> None:
 def test_substeps_take_the_flexions_of_the_frame_they_lead_to(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import contact.run
+    import contact.run.grasprun
     from contact.run import GraspRun
 
     text = FINGER.format(drive="press = 0.0005\ntimes = [1.0]", out=(tmp_path / "o").as_posix())
@@ -199,13 +199,13 @@ def test_substeps_take_the_flexions_of_the_frame_they_lead_to(
     path.write_text(text)
     run = GraspRun(load_scene(path))
     seen = []
-    solve = contact.run.solve_rolled
+    solve = contact.run.grasprun.solve_rolled
 
     def spy(run_, t, angles, callback):
         seen.append((t, angles["index_mcp"]))
         return solve(run_, t, angles, callback)
 
-    monkeypatch.setattr(contact.run, "solve_rolled", spy)
+    monkeypatch.setattr(contact.run.grasprun, "solve_rolled", spy)
     run.frame(0.0)
     run.frame(1.0)
     assert [t for t, _ in seen] == [0.0, 0.5, 1.0]

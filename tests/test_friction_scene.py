@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import contact.grasp
-import contact.run
+import contact.run.grasprun
 from contact.grasp import main
 from contact.run import GraspRun
 from contact.scene import HandScene, PlaneScene, Scene, SceneError, load_scene
@@ -227,7 +227,7 @@ class _Solved(Exception):
 
 
 def _record(monkeypatch: pytest.MonkeyPatch) -> list[dict]:
-    """Replace ``solve_frame`` in :mod:`contact.run`: record its pairs and anchors."""
+    """Replace ``solve_frame`` in :mod:`contact.run.grasprun`: record its pairs and anchors."""
     calls: list[dict] = []
 
     def fake(bodies, pairs, planes, settings, *, callback=None, anchors=None):
@@ -242,7 +242,7 @@ def _record(monkeypatch: pytest.MonkeyPatch) -> list[dict]:
             held=None,
         )
 
-    monkeypatch.setattr(contact.run, "solve_frame", fake)
+    monkeypatch.setattr(contact.run.grasprun, "solve_frame", fake)
     return calls
 
 
@@ -281,13 +281,13 @@ def test_substeps_solve_the_steps_between_frames(
 ) -> None:
     calls = _record(monkeypatch)
     moves: list[float] = []
-    fake = contact.run.solve_frame
+    fake = contact.run.grasprun.solve_frame
 
     def spy(bodies, pairs, planes, settings, **kw):
         moves.append(float(planes[0].motion[0]))  # the left pad moves 1 mm per unit time
         return fake(bodies, pairs, planes, settings, **kw)
 
-    monkeypatch.setattr(contact.run, "solve_frame", spy)
+    monkeypatch.setattr(contact.run.grasprun, "solve_frame", spy)
     path = pinch(tmp_path)
     path.write_text(path.read_text().replace("[solver]\n", "[solver]\nsubsteps = 4\n"))
     run = GraspRun(load_scene(path))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from contact.rolling import turned_placement
+from contact.run.rolling import turned_placement
 from contact.solver.anchors import Anchors
 from fem import rigid_part
 

@@ -3,7 +3,7 @@
 A :class:`SceneObject` holds what lasts across frames (its mesh at the scene placement,
 its material, the faces that can touch, its own loads) and what each frame adds: the
 joint it follows, its weight and external load (the run adds the turn it has rolled,
-:mod:`contact.rolling`). :meth:`SceneObject.body` gives the placed
+:mod:`contact.run.rolling`). :meth:`SceneObject.body` gives the placed
 :class:`~contact.solver.body.ElasticBody`, factored once and again only when the
 placement turns it (a translation shares the factorisation). A ``fixed`` object is
 rigid and held by the world: every node prescribed, its reactions the contact forces.

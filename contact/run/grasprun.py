@@ -35,28 +35,28 @@ from numpy.typing import NDArray
 
 import fem
 
-from .ball import Ball, make_ball, nodal_pressure
-from .fingerforce import FIRST_PRESS, drive, finger_forces, force_targets, guess, remember
-from .geometry.plane import Plane
-from .geometry.surfacequery import TriangleSurface
-from .hand.autoflex import auto_flex, mesh_distance
-from .hand.fingers import node_parts
-from .hand.keyframes import Keyframes
-from .hand.posing import HandPoser, Pose
-from .hand.shipped import load_hand
-from .objects.meshing import mesh_object
-from .objects.placed import SceneObject, from_ball, from_scene, object_pairs
+from ..ball import Ball, make_ball, nodal_pressure
+from ..fingerforce import FIRST_PRESS, drive, finger_forces, force_targets, guess, remember
+from ..geometry.plane import Plane
+from ..geometry.surfacequery import TriangleSurface
+from ..hand.autoflex import auto_flex, mesh_distance
+from ..hand.fingers import node_parts
+from ..hand.keyframes import Keyframes
+from ..hand.posing import HandPoser, Pose
+from ..hand.shipped import load_hand
+from ..objects.meshing import mesh_object
+from ..objects.placed import SceneObject, from_ball, from_scene, object_pairs
+from ..scene.model import PlaneScene
+from ..scene.spec import Scene
+from ..solver.anchors import Anchors
+from ..solver.body import ElasticBody
+from ..solver.finite import FiniteBody, solve_finite_frame
+from ..solver.iteration import solve_frame
+from ..solver.pairs import ContactPair
+from ..solver.results import FrameResult, IterationRecord
+from ..solver.settings import ContactSettings
+from ..startchecks import check_bones, check_overlaps
 from .rolling import solve_rolled
-from .scene.model import PlaneScene
-from .scene.spec import Scene
-from .solver.anchors import Anchors
-from .solver.body import ElasticBody
-from .solver.finite import FiniteBody, solve_finite_frame
-from .solver.iteration import solve_frame
-from .solver.pairs import ContactPair
-from .solver.results import FrameResult, IterationRecord
-from .solver.settings import ContactSettings
-from .startchecks import check_bones, check_overlaps
 from .stepping import solve_stepped
 
 __all__ = ["GraspRun"]
@@ -93,7 +93,7 @@ class GraspRun:
         left it: the next frame starts it there.
     placed_anew : dict of str to ndarray
         Each free linear object's placement anew (4x4) after it rolled, on top of its
-        scene's (:func:`contact.rolling.solve_rolled`).
+        scene's (:func:`contact.run.rolling.solve_rolled`).
     """
 
     scene: Scene
@@ -294,9 +294,9 @@ class GraspRun:
         frame solved and ``t`` are solved first (``n - 1`` of them, not returned), each
         carrying the anchors to the next. A frame with a neo-Hookean body whose Newton
         does not converge (where no free body fell) is solved again from the last
-        frame's state with its step of time cut in 2, then 4 (:data:`contact.stepping.MAX_CUTS`): a
-        smaller increment of the pose and the loads, as a finite-strain code cuts back
-        its time step.
+        frame's state with its step of time cut in 2, then 4
+        (:data:`contact.run.stepping.MAX_CUTS`): a smaller increment of the pose and the
+        loads, as a finite-strain code cuts back its time step.
 
         Parameters
         ----------

@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 
 import fem
 
-from .solver.anchors import Anchors
+from ..solver.anchors import Anchors
 
 __all__ = ["MAX_ROLLS", "ROLL", "solve_rolled", "turned_placement"]
 
