@@ -66,7 +66,7 @@ def main(argv: list[str]) -> int:
     t0 = time.perf_counter()
     import contact.grasp
     import contact.output.writer
-    import contact.run
+    import contact.run.grasprun
     import contact.scene.read
     import contact.solver.body
     import fem
@@ -74,14 +74,16 @@ def main(argv: list[str]) -> int:
     imports = time.perf_counter() - t0
     grasp = contact.grasp
     _wrap(contact.scene.read, "load_scene", "load_mesh")
-    _wrap(contact.run.GraspRun, "__post_init__", "load_mesh")
+    run = contact.run.grasprun
+    _wrap(run.GraspRun, "__post_init__", "load_mesh")
     for name in ("angles", "ball_body", "hand_body"):
-        _wrap(contact.run.GraspRun, name, "posing")
-    _wrap(contact.run, "check_bones", "posing")
+        _wrap(run.GraspRun, name, "posing")
+    _wrap(run, "check_bones", "posing")
     _wrap(contact.solver.body.ElasticBody, "__init__", "assemble_factor")
     # bodies factor lazily, inside the contact iteration once their contact zone is marked
     _wrap(fem.StaticSolver, "factorize", "assemble_factor")
-    _wrap(contact.run, "solve_frame", "contact")
+    _wrap(run, "solve_frame", "contact")
+    _wrap(run, "solve_finite_frame", "contact")
     for name in ("__init__", "add_frame", "finish"):
         _wrap(contact.output.writer.ResultsWriter, name, "writing")
     _wrap(grasp, "main", "other")
