@@ -15,13 +15,16 @@ the forces out of balance, contact forces included, round-off of its loads.
 Linear bodies may take part: each linearisation solves them whole, as a frame does.
 
 A compressed body's full tangent is not positive definite on its own: a column fixed at
-its base sways, a free body's turn moves its forces. A supported body takes its full
-tangent plus springs along its last closed contacts' normals (:func:`_springs`), which
-change nothing of a step along those rows; a free body takes the material tangent
-(:func:`fem.finite_strain` with ``tangent="material"``), whose null space is exactly its
-rigid modes, so that the free-body solver places it as it does a linear one: a modified
-Newton, more steps than Newton's. Friction's slip is measured from the previous frame's
-anchors in every step, and force-driven planes are placed by every step's solve.
+its base sways, a free body's turn moves its forces. Every body takes its full tangent; a
+supported one plus springs along its last contacts closed on planes (:func:`_springs`),
+which change nothing of a step along those rows. Where the full tangent cannot be
+factored or its linear frame fails, the step takes the material tangent
+(:func:`fem.finite_strain` with ``tangent="material"``), whose null space is exactly the
+rigid modes, and so does a free body whose steps shrink only at a linear rate
+(:func:`_linear_rate`). A free body's step turns it by a finite rotation, at most
+:data:`MAX_TURN` (:func:`_turned`). Newton stops as stalled where its residual no longer
+halves (:data:`STALL`). Friction's slip is measured from the previous frame's anchors in
+every step, and force-driven planes are placed by every step's solve.
 """
 
 from __future__ import annotations
