@@ -24,7 +24,7 @@ from .errors import (
 from .generators import ball_mesh, graded_ball_mesh, shell_mesh
 from .graded_tets import graded_tet_octant
 from .grids import box_mesh, hex_to_tet
-from .hyperelastic import FiniteStrain, cauchy_stress, finite_strain, neo_hookean
+from .hyperelastic import FiniteStrain, cauchy_stress, finite_strain, log_strain, neo_hookean
 from .io import read_mesh, read_mesh_data, write_mesh
 from .linsolve import available_backends, factorize
 from .loads import (
@@ -40,7 +40,7 @@ from .meshing import check_surface, sphere_surface, tetrahedralize
 from .newton import NewtonSolution, solve_finite_strain
 from .nodalpressure import nodal_dilatation, nodal_pressure_correction
 from .pvmesh import from_pyvista, to_pyvista
-from .saddle import rigid_part
+from .saddle import rigid_part, turned_placement
 from .statics import StaticSolution, StaticSolver, check_balance, rigid_body_modes
 from .stress import cell_stress, gauss_strain, nodal_average, von_mises
 from .threads import dense_threads, sparse_threads
@@ -92,6 +92,7 @@ __all__ = [
     "hex_to_tet",
     "initial_stress_load",
     "lame",
+    "log_strain",
     "neo_hookean",
     "nodal_average",
     "nodal_dilatation",
@@ -110,6 +111,7 @@ __all__ = [
     "sphere_surface",
     "tetrahedralize",
     "to_pyvista",
+    "turned_placement",
     "von_mises",
     "write_mesh",
 ]

@@ -38,6 +38,7 @@ __all__ = [
     "solve_saddle",
     "solve_saddle_with",
     "spd_solve",
+    "turned_placement",
 ]
 
 #: Rigid modes whose singular value in the constraint matrix is below this fraction of the
@@ -94,6 +95,27 @@ def rigid_part(
     j = (r * r).sum() * np.eye(3) - r.T @ r
     omega = np.linalg.solve(j, np.cross(r, d - t).sum(axis=0))
     return t, omega
+
+
+def turned_placement(
+    points: ArrayLike, t: ArrayLike, omega: ArrayLike
+) -> NDArray[np.float64]:
+    """The 4x4 placement that turns ``points`` by the finite rotation ``omega`` and moves them.
+
+    About their centroid ``c``: ``x -> R (x - c) + c + t``, ``R`` the rotation by
+    ``|omega|`` about ``omega`` (Rodrigues): the finite motion of a :func:`rigid_part`.
+    """
+    c = np.asarray(points, dtype=np.float64).mean(axis=0)
+    angle = float(np.linalg.norm(omega))
+    rot = np.eye(3)
+    if angle > 0:
+        k = np.asarray(omega, dtype=np.float64) / angle
+        kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+        rot = rot + np.sin(angle) * kx + (1.0 - np.cos(angle)) * kx @ kx
+    out = np.eye(4)
+    out[:3, :3] = rot
+    out[:3, 3] = c + np.asarray(t, dtype=np.float64) - rot @ c
+    return out
 
 
 def check_balance(f: NDArray[np.float64], points: ArrayLike, rtol: float = 1e-8) -> None:

@@ -24,7 +24,6 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 import fem
-from fem.hyperelastic import log_strain
 
 from ..errors import OutputError
 from ..solver.results import FrameResult, FrictionReport
@@ -179,7 +178,7 @@ def max_strain(
     """The largest principal strain of a body, in magnitude, at any Gauss point.
 
     A ``finite`` (neo-Hookean) body's is its largest principal logarithmic strain
-    ``|ln lambda|`` (:func:`fem.hyperelastic.log_strain`), 0 for a rigid turn of any angle.
+    ``|ln lambda|`` (:func:`fem.log_strain`), 0 for a rigid turn of any angle.
 
     Parameters
     ----------
@@ -196,7 +195,7 @@ def max_strain(
         ``max |eig(eps)|`` of the small strain tensor (dimensionless; 0.1 is 10 %).
     """
     if finite:
-        logs = log_strain(mesh, np.ravel(u))
+        logs = fem.log_strain(mesh, np.ravel(u))
         return float(max((np.abs(e).max(initial=0.0) for e in logs.values()), default=0.0))
     eps = fem.gauss_strain(mesh, np.ravel(u), bbar=bbar, nodal_pressure=nodal_pressure)
     peaks = [np.abs(np.linalg.eigvalsh(e.reshape(-1, 3, 3))).max(initial=0.0) for e in eps.values()]

@@ -26,7 +26,6 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 import fem
-from fem.hyperelastic import cauchy_stress, log_strain
 from fem.stress import cell_stress, von_mises
 
 from .staging import write_atomic
@@ -184,7 +183,8 @@ def write_body_vtu(
     """
     u = np.asarray(displacement, dtype=np.float64)
     if finite:
-        sigma = {k: s.mean(axis=1) for k, s in cauchy_stress(mesh, materials, u.ravel()).items()}
+        gauss = fem.cauchy_stress(mesh, materials, u.ravel())
+        sigma = {k: s.mean(axis=1) for k, s in gauss.items()}
     else:
         sigma = cell_stress(mesh, materials, u.ravel(), bbar=bbar, nodal_pressure=nodal_pressure)
     vm = {k: von_mises(s) for k, s in sigma.items()}
@@ -193,7 +193,7 @@ def write_body_vtu(
         "stress": {k: s[:, _VOIGT[0], _VOIGT[1]] for k, s in sigma.items()},
     }
     if finite:
-        logs = log_strain(mesh, u.ravel())
+        logs = fem.log_strain(mesh, u.ravel())
         cells["max_log_strain"] = {k: np.abs(e).max(axis=(1, 2)) for k, e in logs.items()}
     if cell_bone is not None:
         cells["bone"] = np.asarray(cell_bone, dtype=np.int32)

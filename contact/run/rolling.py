@@ -18,9 +18,9 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
 import fem
+from fem import turned_placement
 
 from ..solver.anchors import Anchors
 
@@ -34,27 +34,6 @@ log = logging.getLogger(__name__)
 ROLL = 0.05
 #: Solves of a frame again after a placement anew.
 MAX_ROLLS = 3
-
-
-def turned_placement(
-    points: NDArray[np.float64], t: NDArray[np.float64], omega: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """The 4x4 placement that turns ``points`` by the finite rotation ``omega`` and moves them.
-
-    About their centroid ``c``: ``x -> R (x - c) + c + t``, ``R`` the rotation by
-    ``|omega|`` about ``omega`` (Rodrigues).
-    """
-    c = np.asarray(points, dtype=np.float64).mean(axis=0)
-    angle = float(np.linalg.norm(omega))
-    rot = np.eye(3)
-    if angle > 0:
-        k = np.asarray(omega, dtype=np.float64) / angle
-        kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-        rot = rot + np.sin(angle) * kx + (1.0 - np.cos(angle)) * kx @ kx
-    out = np.eye(4)
-    out[:3, :3] = rot
-    out[:3, 3] = c + np.asarray(t, dtype=np.float64) - rot @ c
-    return out
 
 
 def solve_rolled(run: Any, t: float, angles: dict[str, float], callback: Callable | None):

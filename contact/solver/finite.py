@@ -295,10 +295,12 @@ def solve_finite_frame(
             moves[b.name] = float(np.abs(du).max(initial=0.0)) / size[b.name]
             if b.name in mixed:
                 target = mixed[b.name] - u[b.name]
+            elif b.free:
+                target, short = _turned(b, u[b.name], du)
+                if short:
+                    swung = step  # the body is still on its way
             else:
-                target = _turned(b, u[b.name], du) if b.free else du
-                if target.size and np.abs(target - du).max() > 0.5 * np.abs(du).max():
-                    swung = step  # shortened: the body is still on its way
+                target = du
             u[b.name], f_int = _stepped(b, u[b.name], target)
             held = b.free and res.friction is None  # frictionless: its turn held
             forces = res.contact_force[b.name]
@@ -403,33 +405,29 @@ def _anderson(history, u, steps, names, depth: int = ANDERSON):
     return out
 
 
-def _turned(body: FiniteBody, u: NDArray, du: NDArray) -> NDArray:
-    """A free body's step with its rigid turn taken as a finite rotation.
+def _turned(body: FiniteBody, u: NDArray, du: NDArray) -> tuple[NDArray, bool]:
+    """A free body's step with its rigid turn taken as a finite rotation; and shortened.
 
     The linearised step turns the body by ``omega x r``, which stretches it by about
     ``|omega|^2 / 2``: a strain the next step must undo. The step's rigid part
-    ``t + omega x (x - c)`` (a least-squares fit about the centroid ``c`` of the placement
-    ``x``) is taken as ``x -> c + t + R(omega) (x - c + d)`` instead, ``d`` the rest of
-    the step, ``R`` Rodrigues' rotation: the same to first order, no stretch from the turn.
-    A step that turns the body by more than :data:`MAX_TURN` is shortened to it.
+    ``t + omega x (x - c)`` (:func:`fem.rigid_part`, about the centroid ``c`` of the
+    placement ``x``) is taken as ``x -> c + t + R(omega) (x - c + d)`` instead
+    (:func:`fem.turned_placement`), ``d`` the rest of the step: the same to first order,
+    no stretch from the turn. A step that turns the body by more than :data:`MAX_TURN`
+    is shortened to it, and says so.
     """
     x = body.mesh.points + u.reshape(-1, 3)
     d = du.reshape(-1, 3)
     t, omega = fem.rigid_part(x, d)
     angle = float(np.linalg.norm(omega))
-    if angle > MAX_TURN:
+    short = angle > MAX_TURN
+    if short:
         # a body far from its balance (a ball that swings to hang below a pinch): the
         # linearisation is trusted for MAX_TURN at a time
-        short = MAX_TURN / angle
-        d, t, omega, angle = d * short, t * short, omega * short, MAX_TURN
-    if angle <= 1e-8:
-        return d.ravel()
-    c = x.mean(axis=0)
-    k = omega / angle
-    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    rot = np.eye(3) + np.sin(angle) * kx + (1.0 - np.cos(angle)) * kx @ kx
-    rest = d - t - np.cross(omega, x - c)
-    return ((x - c + rest) @ rot.T + c + t - x).ravel()
+        d, t, omega = d * (MAX_TURN / angle), t * (MAX_TURN / angle), omega * (MAX_TURN / angle)
+    rest = d - t - np.cross(omega, x - x.mean(axis=0))
+    tf = fem.turned_placement(x, t, omega)
+    return ((x + rest) @ tf[:3, :3].T + tf[:3, 3] - x).ravel(), short
 
 
 def _stepped(body: FiniteBody, u: NDArray, du: NDArray) -> tuple[NDArray, NDArray]:
