@@ -1,7 +1,7 @@
 """The least grip that holds: its accuracy on the pads, its cost and its trend on the pinch.
 
 ``python -m benchmarks holding`` runs ``--least-grip``'s search
-(:func:`contact.leastgrip.least_grip`) from each scene's own run, as the command line
+(:func:`contact.holding.leastgrip.least_grip`) from each scene's own run, as the command line
 does, and counts what it costs:
 
 - the pads (``examples/pads.toml``): two force-driven frictional pads, gravity along them;
@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 import contact.run.grasprun
-from contact.leastgrip import judge, least_grip
+from contact.holding.leastgrip import judge, least_grip
 from contact.run import GraspRun
 from contact.scene.read import load_scene
 

@@ -11,7 +11,6 @@ verification cases. ``python -m contact.grasp SCENE.toml`` runs a scene.
 
 from __future__ import annotations
 
-from .ball import Ball, BallError, BallSpec, make_ball
 from .errors import PoseError, RigError
 from .geometry.plane import Plane
 from .geometry.surfacequery import Closest, SurfaceError, TriangleSurface, surface_of_mesh
@@ -25,6 +24,7 @@ from .hand.objects import ObjectAssociation
 from .hand.posing import HandPoser, Pose, pose_hand
 from .hand.shipped import Hand, load_hand
 from .hand.skeleton import Skeleton, load_skeleton
+from .objects.ball import Ball, BallError, BallSpec, make_ball
 from .output import BodyFrame, ResultsWriter, verdict
 from .scene import Scene, SceneError, load_scene
 from .solver import ContactSettings, solve_frame

@@ -4,11 +4,11 @@ It reads the scene, solves its frames (:class:`contact.run.GraspRun`: pose the h
 the ball, resolve the contact) and writes the results folder
 (:class:`contact.output.ResultsWriter`), with a progress bar on a terminal and warnings as
 one log line each. On stdout it reports one line a frame and a closing line
-(:mod:`contact.report`; ``--quiet`` silences them). Exit status (:data:`EXIT_STATUS`): 0
+(:mod:`contact.app.report`; ``--quiet`` silences them). Exit status (:data:`EXIT_STATUS`): 0
 when every frame converged with every bone under its limit, 1 when a frame did not
 converge, a bone passed its limit or a free body is not held (everything is still written;
 stderr names each such frame and why, unless ``--quiet``; the run stops at the first frame
-not held, the frames after it reported as not solved: :mod:`contact.unheld`), 2 for bad
+not held, the frames after it reported as not solved: :mod:`contact.app.unheld`), 2 for bad
 input (one line on stderr naming the file, key or element; nothing written), 3 for an
 internal error (one line naming the exception and a log file holding its traceback), 4 for
 an I/O failure (a folder that cannot be written, a full disk, a race lost to another run),
@@ -24,10 +24,10 @@ With friction every frame depends on the frames before it (where each contact st
 is solved, in time order, and only those asked for are written.
 
 ``--pose-only`` poses the hand and places the ball without solving
-(:mod:`contact.poseonly`).
+(:mod:`contact.app.poseonly`).
 
 ``--least-grip`` then searches the least scale of the scene's force-driven grip that holds
-the ball at every frame (:mod:`contact.leastgrip`; the normal run is its first trial), adds
+the ball at every frame (:mod:`contact.holding.leastgrip`; the normal run is its first trial), adds
 it to ``summary.json`` as ``least_grip`` and reports it in one more line; each trial gives
 a progress line on stderr. It needs every frame (no ``--frames``), something force-driven,
 gravity and friction: else exit status 2, nothing written. The exit status stays the
@@ -48,14 +48,14 @@ from typing import TextIO
 
 import fem
 
-from . import unheld
-from .cli import check_terminated, guarded
+from .app import unheld
+from .app.cli import check_terminated, guarded
+from .app.poseonly import pose_only
+from .app.report import frame_line, least_grip_line, trial_line
 from .errors import ContactError, OutputError, SceneError, TargetError
 from .hand.fingers import node_parts
-from .leastgrip import Trial, judge, least_grip
+from .holding.leastgrip import Trial, judge, least_grip
 from .output import BodyFrame, ResultsWriter, summary, versions
-from .poseonly import pose_only
-from .report import frame_line, least_grip_line, trial_line
 from .run import GraspRun
 from .scene.read import load_scene
 from .solver.body import ElasticBody
@@ -204,7 +204,7 @@ def run(
             result, extra, planes, frame_bodies = run_.frame(t, tell)
             results.append(result)
             gone = unheld.lost(result)
-            if gone:  # no defined state to go on from: the run stops here (contact.unheld)
+            if gone:  # no defined state to go on from: the run stops here (contact.app.unheld)
                 status = 1
                 later = [j for j in solved[k + 1 :] if j in chosen]
                 unsolved = unheld.not_solved(i, t, result, [(j, times[j]) for j in later])

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import fem
-from contact.ball import Ball, BallError, BallSpec, make_ball
 from contact.errors import ContactError
+from contact.objects.ball import Ball, BallError, BallSpec, make_ball
 from contact.solver.body import ElasticBody
 
 R, T, P = 0.035, 0.012, 2.0e4
@@ -181,7 +181,7 @@ def test_a_pressure_beyond_small_strains_warns():
 
 
 def test_tetrahedra_near_incompressible_take_nodal_pressures(monkeypatch):
-    import contact.ball as ball_module
+    import contact.objects.ball as ball_module
 
     # the mesh itself does not matter here: a small hex_to_tet ball stands for pytetwild's
     monkeypatch.setattr(

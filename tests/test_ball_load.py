@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 
 import fem
-from contact.ball import MAX_LOAD_FORCE, BallSpec
 from contact.grasp import main
+from contact.objects.ball import MAX_LOAD_FORCE, BallSpec
 from contact.run import GraspRun
 from contact.scene import SceneError, load_scene
 from contact.scene import model as scene_model

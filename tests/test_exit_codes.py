@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-import contact.cli
+import contact.app.cli
 import contact.grasp
 from contact.errors import OutputError
 from contact.grasp import main
@@ -165,7 +165,7 @@ def test_a_sigterm_whose_exception_was_swallowed_still_stops_the_run(
 
     def frame_then_signal(self, *args, **kwargs):
         result = frame(self, *args, **kwargs)
-        contact.cli.SIGNALLED.append(signal.SIGTERM)  # the handler ran; its raise was lost
+        contact.app.cli.SIGNALLED.append(signal.SIGTERM)  # the handler ran; its raise was lost
         return result
 
     monkeypatch.setattr(GraspRun, "frame", frame_then_signal)

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from contact.fingerforce import MAX_STEPS, Target, drive
 from contact.grasp import main
+from contact.holding.fingerforce import MAX_STEPS, Target, drive
 from contact.scene import SceneError, load_scene
 
 ROOT = Path(__file__).resolve().parents[1]

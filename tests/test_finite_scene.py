@@ -18,9 +18,9 @@ import meshio
 import numpy as np
 import pytest
 
-from contact.ball import BallSpec, make_ball
 from contact.errors import SceneError
 from contact.grasp import main
+from contact.objects.ball import BallSpec, make_ball
 from contact.objects.placed import from_ball
 from contact.run import GraspRun
 from contact.scene import load_scene

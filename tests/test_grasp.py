@@ -222,7 +222,7 @@ def test_pose_only_writes_the_posed_hand_the_ball_and_where_each_finger_is(tmp_p
     """The index of finger_press is flexed 0.5 mm, then 1 mm, into the ball: its nearest
     skin node is inside by about that (the ball's facets lie inside the sphere); the
     other parts stay centimetres away; nothing is solved."""
-    from contact.report import parse_line
+    from contact.app.report import parse_line
 
     out = tmp_path / "pose"
     scene = ROOT / "examples" / "finger_press.toml"

@@ -12,6 +12,8 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("fem", "contact")
 MAX_LINES = 500
+#: Modules at the top of ``contact/`` (``__init__.py`` counted).
+MAX_TOP = 6
 #: Subpackages whose modules must not touch files (stateless geometry, a solver that writes
 #: nothing): the application reads and writes.
 NO_FILES = ("contact.geometry", "contact.solver")
@@ -192,9 +194,9 @@ def test_init_only_reexports(name):
     for node in tree.body[1:] if ast.get_docstring(tree) else tree.body:
         if isinstance(node, ast.ImportFrom) and (node.level or node.module == "__future__"):
             continue
-        if isinstance(node, ast.Assign) and all(
-            isinstance(t, ast.Name) and t.id.startswith("__") for t in node.targets
-        ):
+        targets = node.targets if isinstance(node, ast.Assign) else [
+            node.target] if isinstance(node, ast.AnnAssign) else []
+        if targets and all(isinstance(t, ast.Name) and t.id.startswith("__") for t in targets):
             continue
         pytest.fail(f"{MODULES[name].relative_to(ROOT)}:{node.lineno}: not a re-export")
 
@@ -206,8 +208,15 @@ def test_explicit_all(name):
     if name.rpartition(".")[2].startswith("_") and MODULES[name].name != "__init__.py":
         return
     names = {getattr(t, "id", "") for node in tree.body if isinstance(node, ast.Assign)
-             for t in node.targets}
+             for t in node.targets} | {getattr(node.target, "id", "") for node in tree.body
+                                       if isinstance(node, ast.AnnAssign)}
     assert "__all__" in names, f"{name}: no __all__"
+
+
+def test_the_top_of_contact_is_read_in_one_look():
+    # the application's entry, the exceptions, the TOML reader: the rest lives in rooms
+    top = sorted(p.name for p in (ROOT / "contact").glob("*.py"))
+    assert len(top) <= MAX_TOP, f"{len(top)} modules at the top of contact/: {top}"
 
 
 def test_the_readme_is_short_enough_to_read():

@@ -11,11 +11,19 @@ import numpy as np
 import pytest
 
 import contact.grasp
+from contact.app.report import LEAST_GRIP_KEYS, least_grip_line, parse_line
 from contact.errors import SceneError
 from contact.grasp import main
-from contact.leastgrip import BOUND, MAX_TRIALS, LeastGrip, Trial, judge, least_grip, measure
-from contact.leastgrip import search as grip_search
-from contact.report import LEAST_GRIP_KEYS, least_grip_line, parse_line
+from contact.holding.leastgrip import (
+    BOUND,
+    MAX_TRIALS,
+    LeastGrip,
+    Trial,
+    judge,
+    least_grip,
+    measure,
+)
+from contact.holding.leastgrip import search as grip_search
 from contact.run import GraspRun
 from contact.scene.read import load_scene
 

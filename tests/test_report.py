@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 import contact.output.summary
+from contact.app.report import FRAME_KEYS, SUMMARY_KEYS, frame_line, parse_line, summary_line
 from contact.grasp import main
-from contact.report import FRAME_KEYS, SUMMARY_KEYS, frame_line, parse_line, summary_line
 
 ROOT = Path(__file__).resolve().parents[1]
 PARTS = ["palm", "thumb", "index", "middle", "ring", "little"]

@@ -2,8 +2,8 @@
 
 from pathlib import Path
 
+from contact.app.report import parse_line
 from contact.grasp import main
-from contact.report import parse_line
 
 ROOT = Path(__file__).resolve().parents[1]
 

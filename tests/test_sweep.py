@@ -14,8 +14,8 @@ import pytest
 pytest.importorskip("distributed")
 
 from contact.grasp import run as grasp_run
-from contact.sweep import TEST_KILL_ONCE, _limit_threads, main, sweep
-from contact.sweepspec import dump_toml, load_sweep, tomllib
+from contact.sweep.command import TEST_KILL_ONCE, _limit_threads, main, sweep
+from contact.sweep.spec import dump_toml, load_sweep, tomllib
 
 PADS = Path(__file__).resolve().parents[1] / "examples" / "pads.toml"
 SKIP = {"timings", "seconds", "versions"}
@@ -190,9 +190,9 @@ def test_a_generated_scene_that_does_not_load_names_the_run(tmp_path, capsys):
 
 
 def test_a_scheduler_that_does_not_answer_exits_2(tmp_path, capsys, monkeypatch):
-    import contact.sweepcluster
+    import contact.sweep.cluster
 
-    monkeypatch.setattr(contact.sweepcluster, "SCHEDULER_TIMEOUT", 1.0)
+    monkeypatch.setattr(contact.sweep.cluster, "SCHEDULER_TIMEOUT", 1.0)
     _scene(tmp_path)
     sw = _sweep(tmp_path, '"plane[0].friction" = [0.5]')
     assert sweep(sw, out=tmp_path / "out", scheduler="tcp://127.0.0.1:1", quiet=True) == 2
@@ -224,9 +224,9 @@ def test_a_worker_killed_during_a_run_is_resubmitted(tmp_path, monkeypatch):
 
 
 def test_a_run_whose_worker_dies_past_the_allowed_failures_is_a_failed_row(tmp_path, monkeypatch):
-    import contact.sweepcluster
+    import contact.sweep.cluster
 
-    monkeypatch.setattr(contact.sweepcluster, "ALLOWED_FAILURES", 0)  # one death is too many
+    monkeypatch.setattr(contact.sweep.cluster, "ALLOWED_FAILURES", 0)  # one death is too many
     monkeypatch.setenv(TEST_KILL_ONCE, str(tmp_path / "killed"))
     _scene(tmp_path)
     sw = _sweep(tmp_path, '"plane[0].friction" = [0.5]')
@@ -238,7 +238,7 @@ def test_a_run_whose_worker_dies_past_the_allowed_failures_is_a_failed_row(tmp_p
 
 def test_the_parquet_table_reads_back_equal_to_the_csv(tmp_path):
     pq = pytest.importorskip("pyarrow.parquet")
-    from contact.sweeptable import columns, write_table
+    from contact.sweep.table import columns, write_table
 
     keys = ["ball.material.E", "scene.gravity", "ball.mesh"]
     done = {"status": "done", "exit_status": 0, "converged": True, "realistic": True,

@@ -20,10 +20,10 @@ import pytest
 
 pytest.importorskip("distributed")
 
-import contact.sweep
-from contact.sweep import main
-from contact.sweepspec import dump_toml
-from contact.sweeptable import figures
+import contact.sweep.command
+from contact.sweep.command import main
+from contact.sweep.spec import dump_toml
+from contact.sweep.table import figures
 
 PADS = Path(__file__).resolve().parents[1] / "examples" / "pads.toml"
 CASES = 200
@@ -134,8 +134,8 @@ def _stub(monkeypatch, rng: random.Random) -> None:
                 "status": "failed: ValueError: stubbed", "exit_status": 3}  # fmt: skip
             rows[r.index] = {"run": r.name, **r.values, **res}
 
-    monkeypatch.setattr(contact.sweep, "client", client)
-    monkeypatch.setattr(contact.sweep, "_submit", submit)
+    monkeypatch.setattr(contact.sweep.command, "client", client)
+    monkeypatch.setattr(contact.sweep.command, "_submit", submit)
 
 
 @pytest.mark.parametrize("chunk", range(CHUNKS))

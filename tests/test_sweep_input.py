@@ -16,11 +16,11 @@ import pytest
 
 pytest.importorskip("distributed")
 
-import contact.sweep
-import contact.sweepcluster
-from contact.sweep import EXIT_STATUS, main
-from contact.sweepspec import MAX_RUNS
-from contact.sweeptable import _figure, columns, figures, write_table
+import contact.sweep.cluster
+import contact.sweep.command
+from contact.sweep.command import EXIT_STATUS, main
+from contact.sweep.spec import MAX_RUNS
+from contact.sweep.table import _figure, columns, figures, write_table
 
 PADS = Path(__file__).resolve().parents[1] / "examples" / "pads.toml"
 
@@ -61,8 +61,8 @@ def _stub_cluster(monkeypatch, submit=None) -> list:
         for r, _ in todo:
             rows[r.index] = {"run": r.name, **r.values, **figures(summary), "status": "done"}
 
-    monkeypatch.setattr(contact.sweep, "client", client)
-    monkeypatch.setattr(contact.sweep, "_submit", submit or done)
+    monkeypatch.setattr(contact.sweep.command, "client", client)
+    monkeypatch.setattr(contact.sweep.command, "_submit", submit or done)
     return calls
 
 
@@ -124,7 +124,7 @@ def test_a_bad_scheduler_address_exits_2_before_anything(tmp_path, capsys, addre
 
 
 def test_a_scheduler_that_accepts_and_never_answers_exits_2_in_time(tmp_path, capsys, monkeypatch):
-    monkeypatch.setattr(contact.sweepcluster, "SCHEDULER_TIMEOUT", 1.0)
+    monkeypatch.setattr(contact.sweep.cluster, "SCHEDULER_TIMEOUT", 1.0)
     server = socket.create_server(("127.0.0.1", 0))
     held = []
     threading.Thread(target=lambda: held.append(server.accept()), daemon=True).start()
@@ -192,7 +192,7 @@ def test_an_internal_error_is_exit_3_with_one_line_and_a_log_file(tmp_path, caps
     def broken(path):
         raise RuntimeError("a bug\nin two lines")
 
-    monkeypatch.setattr(contact.sweep, "load_sweep", broken)
+    monkeypatch.setattr(contact.sweep.command, "load_sweep", broken)
     sw = _files(tmp_path, '"plane[0].friction" = [0.5]')
     assert main([str(sw), "--out", str(tmp_path / "out"), "--quiet"]) == 3
     err = one_line(capsys.readouterr().err)

@@ -13,9 +13,9 @@ from pathlib import Path
 import pytest
 
 import contact.run
+from contact.app.report import SUMMARY_KEYS, parse_line
+from contact.app.unheld import NOT_SOLVED_KEYS, closing_line, not_solved, not_solved_message
 from contact.grasp import main
-from contact.report import SUMMARY_KEYS, parse_line
-from contact.unheld import NOT_SOLVED_KEYS, closing_line, not_solved, not_solved_message
 
 PADS = """\
 [scene]

@@ -1,4 +1,23 @@
-"""The hand model: rig, skeleton, bones, metaball skin, flesh mesh, keyframes, posing (step 1)."""
+"""The hand model: rig, skeleton, bones, metaball skin, flesh mesh, keyframes, posing (step 1).
+
+Its modules, by what they do:
+
+- **Rig and motion**: the rig file (:mod:`.rigspec`), the skeleton's joints and forward
+  kinematics (:mod:`.skeleton`), keyframed angles (:mod:`.keyframes`), automatic flexion
+  to a touch (:mod:`.autoflex`), objects that follow a joint (:mod:`.objects`), which part
+  a node belongs to (:mod:`.fingers`).
+- **The built meshes**: the metaball skin (:mod:`.metaballs`), the bone surfaces
+  (:mod:`.bones`), the flesh tetrahedra (:mod:`.flesh`, :mod:`.jointgap`), their checks
+  and quality (:mod:`.checks`, :mod:`.quality`), building them (:mod:`.build`) and the hand
+  as shipped (:mod:`.shipped`).
+- **Posing by JLD**: :mod:`.posing` places bones and flesh; the mapping is :mod:`.jld`,
+  with :mod:`.jldframes`, :mod:`.jldlocalise` and :mod:`.jldpalm`.
+- **The flesh relaxer** after the mapping: :mod:`.relax` drives it, on :mod:`.relaxmesh`'s
+  patches, by :mod:`.relaxnewton`'s steps with :mod:`.blockcg`'s solver, compiled kernels
+  (:mod:`.relaxkernels`, :mod:`.tetkernels`, checked against :mod:`.relax_reference`) and
+  :mod:`.restarts` of inverted folds.
+- **Pictures**: :mod:`.plot` and :mod:`.animation`.
+"""
 
 from __future__ import annotations
 

@@ -2,7 +2,7 @@
 
 Each frame poses the hand (:class:`~contact.hand.posing.HandPoser`): the bones by forward
 kinematics and the skin surface by the JLD mapping, drawn by
-:func:`contact.hand.plot.render_hand`; the GIF by :func:`contact.rendering.write_gif`.
+:func:`contact.hand.plot.render_hand`; the GIF by :func:`contact.output.rendering.write_gif`.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..rendering import write_gif
+from ..output.rendering import write_gif
 from .keyframes import Keyframes
 from .plot import DORSAL_VIEW, render_hand
 from .posing import HandPoser

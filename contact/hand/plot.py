@@ -9,8 +9,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from .. import rendering
 from ..errors import ContactError
+from ..output import rendering
 
 if TYPE_CHECKING:
     import pyvista
@@ -65,7 +65,7 @@ def render_hand(
     Raises
     ------
     ContactError
-        No off-screen rendering here (:func:`contact.rendering.rendering_available` says
+        No off-screen rendering here (:func:`contact.output.rendering.rendering_available` says
         why), rather than a VTK failure that can abort the process.
     """
     import pyvista as pv

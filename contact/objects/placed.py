@@ -24,13 +24,13 @@ from numpy.typing import NDArray
 
 import fem
 
-from ..ball import Ball, nodal_pressure
 from ..geometry.surfacequery import TriangleSurface, surface_of_mesh
 from ..hand.objects import ObjectAssociation
 from ..scene.model import Follow
 from ..scene.objects import ObjectScene
 from ..solver.body import ElasticBody
 from ..solver.pairs import ContactPair
+from .ball import Ball, nodal_pressure
 
 __all__ = ["SceneObject", "from_ball", "from_scene", "object_pairs"]
 

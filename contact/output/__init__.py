@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from ..errors import OutputError
-from ..rendering import rendering_available
 from .forces import FrameForces, Push, frame_forces
 from .framing import View, body_views, focus_box, grasp_axis, main_view
 from .pictures import (
@@ -16,6 +15,7 @@ from .pictures import (
 )
 from .plainjson import jsonable, versions
 from .plots import convergence_png, forces_png
+from .rendering import rendering_available
 from .staging import (
     MARKER,
     Staging,

@@ -25,9 +25,9 @@ A frame's picture has a main view of the grasp and, beside it, one view per body
 
 A frame with friction also gets a picture of its stick and slip contacts
 (:mod:`contact.output.status`) in the main view. The pictures need off-screen OpenGL
-(:func:`contact.rendering.rendering_available`, read at use so that tests can replace it);
+(:func:`contact.output.rendering.rendering_available`, read at use so that tests can replace it);
 without it, or when VTK fails, they are skipped with a warning rather than failing a run.
-They are rendered in a child process (:func:`contact.rendering.run_in_child`): VTK can
+They are rendered in a child process (:func:`contact.output.rendering.run_in_child`): VTK can
 abort the process that renders, which then costs the pictures, not the results.
 
 Every file is written atomically (:func:`contact.output.staging.write_atomic`).
@@ -50,7 +50,7 @@ import fem
 from fem.pvmesh import to_pyvista
 from fem.stress import nodal_average
 
-from .. import rendering
+from . import rendering
 from .drawing import Bar, draw_body, draw_planes, draw_pushes, write_verdict
 from .framing import View, body_views, focus_box, grasp_axis, held_view, main_view
 from .picturedata import BodyPicture, Picture

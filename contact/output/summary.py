@@ -441,7 +441,7 @@ def add_least_grip(path: str | Path, record: Mapping[str, Any]) -> None:
     record : mapping
         ``scale``, ``forces`` (name -> N), ``margin``, ``steps``, ``solves``, ``seconds``,
         ``bracket`` ``[lo, hi]`` and what else the search reports
-        (:meth:`contact.leastgrip.LeastGrip.record`); JSON-able.
+        (:meth:`contact.holding.leastgrip.LeastGrip.record`); JSON-able.
 
     Raises
     ------

@@ -18,7 +18,7 @@ per pose, the previous pose warm-starts the next, a neo-Hookean body starts wher
 last frame left it, and friction's anchors of the last frame solved are where the next
 frame's slip is measured from: frames are solved in time order. At the scene's start it
 refuses an object placed deep inside the skin, a plane or another object, and warns of a
-shallow overlap (:func:`contact.startchecks.check_overlaps`). Writing is the caller's.
+shallow overlap (:func:`contact.run.startchecks.check_overlaps`). Writing is the caller's.
 """
 
 from __future__ import annotations
@@ -35,8 +35,6 @@ from numpy.typing import NDArray
 
 import fem
 
-from ..ball import Ball, make_ball, nodal_pressure
-from ..fingerforce import FIRST_PRESS, drive, finger_forces, force_targets, guess, remember
 from ..geometry.plane import Plane
 from ..geometry.surfacequery import TriangleSurface
 from ..hand.autoflex import auto_flex, mesh_distance
@@ -44,6 +42,8 @@ from ..hand.fingers import node_parts
 from ..hand.keyframes import Keyframes
 from ..hand.posing import HandPoser, Pose
 from ..hand.shipped import load_hand
+from ..holding.fingerforce import FIRST_PRESS, drive, finger_forces, force_targets, guess, remember
+from ..objects.ball import Ball, make_ball, nodal_pressure
 from ..objects.meshing import mesh_object
 from ..objects.placed import SceneObject, from_ball, from_scene, object_pairs
 from ..scene.model import PlaneScene
@@ -55,8 +55,8 @@ from ..solver.iteration import solve_frame
 from ..solver.pairs import ContactPair
 from ..solver.results import FrameResult, IterationRecord
 from ..solver.settings import ContactSettings
-from ..startchecks import check_bones, check_overlaps
 from .rolling import solve_rolled
+from .startchecks import check_bones, check_overlaps
 from .stepping import solve_stepped
 
 __all__ = ["GraspRun"]
@@ -75,7 +75,7 @@ class GraspRun:
 
     Attributes
     ----------
-    ball : contact.ball.Ball or None
+    ball : contact.objects.ball.Ball or None
         The ball's mesh, material and loads at its scene position (None: no ``[ball]``).
     objects : list of SceneObject
         The ball (first, when the scene has one) and the ``[[object]]`` meshes, at their
@@ -340,7 +340,7 @@ class GraspRun:
         """Set up and solve the contact at time ``t``, carrying the anchors.
 
         With force-driven fingers, the frame is solved at the angles
-        :func:`contact.fingerforce.drive` tries, each trial from the same history.
+        :func:`contact.holding.fingerforce.drive` tries, each trial from the same history.
         """
         t0 = time.perf_counter()
         angles = self.angles(t) if self.hand is not None else {}

@@ -21,10 +21,10 @@ from numpy.typing import NDArray
 import fem
 from fem.linsolve import BACKENDS
 
-from ..ball import MAX_LOAD_FORCE
 from ..errors import SceneError
 from ..hand.autoflex import FINGERTIPS
 from ..hand.shipped import HAND_DIR
+from ..objects.ball import MAX_LOAD_FORCE
 from ..solver import ContactSettings
 from ._checks import check_friction, invalid
 
@@ -176,7 +176,7 @@ class HandScene:
     auto_flexion : tuple of AutoFlex
     nodal_pressure : bool or None
         The flesh's tetrahedra with averaged nodal pressures (no volumetric locking);
-        None: where ``flesh.nu`` is above :data:`contact.ball.LOCKING_NU`, as for a tet
+        None: where ``flesh.nu`` is above :data:`contact.objects.ball.LOCKING_NU`, as for a tet
         ball.
     friction : float or None
         Coulomb's coefficient of the skin against the ball, >= 0; None: the ball's.

@@ -10,7 +10,7 @@ boolean is not a number), a missing required key or a value out of range raises
 ``grasp.toml: hand.keyframe[1].angles.index_pip = 200: outside its limits [0, 110]``.
 List indices count from 0. This module reads; the defaults and range checks are the
 dataclasses' (:mod:`contact.scene.model`, :mod:`contact.scene.spec`,
-:class:`~contact.ball.BallSpec`, :class:`~contact.solver.ContactSettings`), whose
+:class:`~contact.objects.ball.BallSpec`, :class:`~contact.solver.ContactSettings`), whose
 failures it re-raises with the file and key path. What needs several sections is checked
 here: the keyframes against the rig's skeleton (:mod:`contact.scene.read_hand`), frames
 within the keyframes' span, planes that pass through each other or leave the ball's
@@ -32,8 +32,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._toml import MISSING, tomllib
-from ..ball import BallError, BallSpec
 from ..errors import ContactError, SceneError
+from ..objects.ball import BallError, BallSpec
 from ..solver import ContactSettings
 from . import sizing
 from ._reader import SceneReader

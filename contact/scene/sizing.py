@@ -5,7 +5,7 @@ keys alone, so that a ball meshed far too finely or a frame count far too large 
 in a fraction of a second with the estimate, instead of exhausting the machine's memory
 minutes later. The ball's bricks are counted exactly from the cubed-sphere generators
 (:func:`fem.ball_mesh`, :func:`fem.shell_mesh` with the divisions of
-:func:`contact.ball.make_ball`); its tetrahedra are bounded from the volume (fTetWild's
+:func:`contact.objects.ball.make_ball`); its tetrahedra are bounded from the volume (fTetWild's
 count moves in steps with the edge length: about 0.5 to 1 times the bound); the hand is
 fixed by its resolution. The memory is a per-DOF figure for assembly and sparse
 factorisation, grown with the cube root of the DOFs above a reference size (the fill of
@@ -25,7 +25,7 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..ball import BallSpec
+from ..objects.ball import BallSpec
 
 __all__ = [
     "BASE_BYTES",
@@ -155,7 +155,7 @@ def ball_size(spec: BallSpec) -> tuple[float, float]:
     # below a millionth of the radius the count is beyond any machine: the bound keeps
     # the arithmetic finite
     h = max(float(spec.mesh_size), 1e-6 * r)
-    if spec.element == "hex":  # the divisions of contact.ball._generate
+    if spec.element == "hex":  # the divisions of contact.objects.ball._generate
         n = 2.0 * math.ceil(0.25 * math.pi * r / h - 1e-9)
         if spec.kind == "solid":
             layers = max(1.0, math.ceil((r - 0.6 * r) / h - 1e-9))
@@ -169,7 +169,7 @@ def ball_size(spec: BallSpec) -> tuple[float, float]:
 
 
 def _icosphere_nodes(radius: float, size: float) -> float:
-    """Nodes of the icosphere :func:`contact.ball.make_ball` fills: edges at most ``size``."""
+    """Nodes of the icosphere :func:`contact.objects.ball.make_ball` fills: edges below ``size``."""
     edge = 4.0 / math.sqrt(10.0 + 2.0 * math.sqrt(5.0))  # icosahedron edge / circumradius
     k = min(6, max(2, math.ceil(math.log2(edge * radius / size))))
     return 10.0 * 4.0**k + 2.0

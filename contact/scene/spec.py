@@ -11,8 +11,8 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from ..ball import BallSpec
 from ..errors import SceneError
+from ..objects.ball import BallSpec
 from ._checks import as_dict, check_friction, invalid
 from .model import Follow, HandScene, OutputScene, PlaneScene, SolverScene
 from .objects import ObjectScene

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 import fem
-from contact.ball import BallSpec, make_ball
 from contact.geometry.surfacequery import TriangleSurface, surface_of_mesh
 from contact.hand.autoflex import mesh_distance, sphere_distance
+from contact.objects.ball import BallSpec, make_ball
 from contact.run import GraspRun
 from contact.scene import load_scene
 

@@ -349,9 +349,10 @@ def test_unwritable_or_foreign_folders_are_refused(tmp_path):
 
 
 def test_pictures_skipped_without_rendering(tmp_path, monkeypatch, caplog):
-    import contact.rendering
+    import contact.output.rendering
 
-    monkeypatch.setattr(contact.rendering, "rendering_available", lambda: (False, "no OpenGL"))
+    rendering = contact.output.rendering
+    monkeypatch.setattr(rendering, "rendering_available", lambda: (False, "no OpenGL"))
     bodies = scene_bodies()
     res = frame_result({k: b.mesh for k, b in bodies.items()})
     with ResultsWriter(tmp_path / "r") as w:
@@ -430,7 +431,7 @@ def test_real_frames_with_pictures_gif_and_convergence(tmp_path):
 @pytest.mark.parametrize("egl", [True, False])
 def test_headless_linux_asks_vtk_for_egl_where_it_renders(monkeypatch, egl):
     """No display: EGL is probed first and chosen where it renders, else VTK chooses."""
-    import contact.rendering as out
+    import contact.output.rendering as out
 
     calls = []
 
@@ -465,10 +466,11 @@ def test_headless_linux_asks_vtk_for_egl_where_it_renders(monkeypatch, egl):
 
 
 def test_hand_picture_without_rendering_is_a_clear_error(monkeypatch, tmp_path):
-    import contact.rendering
+    import contact.output.rendering
     from contact.hand.plot import render_hand
 
-    monkeypatch.setattr(contact.rendering, "rendering_available", lambda: (False, "no OpenGL"))
+    rendering = contact.output.rendering
+    monkeypatch.setattr(rendering, "rendering_available", lambda: (False, "no OpenGL"))
     with pytest.raises(ContactError, match=r"cannot render .*hand\.png: no OpenGL"):
         render_hand(tmp_path / "hand.png", {})
     assert not (tmp_path / "hand.png").exists()

@@ -6,7 +6,7 @@ import os
 import pytest
 
 import contact.output.pictures
-import contact.rendering
+import contact.output.rendering
 from contact.grasp import main
 from tests.helpers import plates_scene
 
@@ -24,9 +24,9 @@ def _raise(*args, **kwargs):
 def test_a_renderer_failure_leaves_complete_results(tmp_path, monkeypatch, caplog, how):
     out = tmp_path / "results"
     scene = plates_scene(tmp_path / "scene.toml", out, pictures=True)
-    monkeypatch.setattr(contact.rendering, "rendering_available", lambda: (True, "ok"))
+    monkeypatch.setattr(contact.output.rendering, "rendering_available", lambda: (True, "ok"))
     if how == "raises":
-        monkeypatch.setattr(contact.rendering, "run_in_child", _raise)
+        monkeypatch.setattr(contact.output.rendering, "run_in_child", _raise)
     else:  # a child that dies: the function it runs aborts
         monkeypatch.setattr(contact.output.pictures, "_render_all", _abort)
     assert main([str(scene), "--quiet"]) == 0

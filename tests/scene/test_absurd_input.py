@@ -17,10 +17,10 @@ import pytest
 import fem
 from contact.errors import InputError
 from contact.grasp import main
+from contact.run.startchecks import OVERLAP_REFUSED, check_overlaps, smallest_extent
 from contact.scene import load_scene
 from contact.scene.plausible import MAX_FRICTION, friction_keys
 from contact.solver.body import ElasticBody
-from contact.startchecks import OVERLAP_REFUSED, check_overlaps, smallest_extent
 from tests.helpers import plates_scene
 
 
@@ -102,7 +102,7 @@ def test_two_objects_deep_in_each_other_are_refused_the_hand_posed_into_one_is_n
     )):  # fmt: skip
         check_overlaps(0.0, [block, _box("slab", (0.04, 0.04, 0.02), 0.007)], [], 1e-3)
     # the hand 5 mm into it: posed to press it, warned of only
-    with caplog.at_level(logging.WARNING, logger="contact.startchecks"):
+    with caplog.at_level(logging.WARNING, logger="contact.run.startchecks"):
         check_overlaps(0.0, [block, _box("hand", (0.04, 0.04, 0.02), 0.005)], [], 1e-3)
     said = warnings_of(caplog)
     assert len(said) == 2 and " of block is 5 mm inside hand " in said[0]

@@ -18,7 +18,7 @@ import pytest
 
 from contact import Key
 from contact._toml import tomllib
-from contact.ball import BallSpec
+from contact.objects.ball import BallSpec
 from contact.scene import (
     CONTACT_KEYS,
     AutoFlex,

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 import fem
-from contact.ball import BallSpec, make_ball
 from contact.grasp import main
+from contact.objects.ball import BallSpec, make_ball
 from contact.scene import SceneError, load_scene, sizing
 from contact.scene.bounds import FRAME_TIME_TOL, frame_time
 

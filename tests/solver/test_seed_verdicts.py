@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 import fem
+from contact.app.report import frame_line, parse_line
 from contact.geometry.plane import Plane
 from contact.grasp import main
 from contact.output.summary import verdict
-from contact.report import frame_line, parse_line
 from contact.solver import ContactSettings, solve_frame
 from contact.solver.body import ElasticBody
 from contact.solver.fields import held_verdict

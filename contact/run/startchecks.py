@@ -8,14 +8,14 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import InputError
-from .geometry.plane import Plane
-from .geometry.surfacequery import TriangleSurface
-from .hand.posing import Pose
-from .hand.shipped import Hand
-from .scene.model import PlaneScene
-from .solver.body import ElasticBody
-from .solver.pairs import ContactPair, measure
+from ..errors import InputError
+from ..geometry.plane import Plane
+from ..geometry.surfacequery import TriangleSurface
+from ..hand.posing import Pose
+from ..hand.shipped import Hand
+from ..scene.model import PlaneScene
+from ..solver.body import ElasticBody
+from ..solver.pairs import ContactPair, measure
 
 __all__ = ["OVERLAP_REFUSED", "check_bones", "check_overlaps", "smallest_extent"]
 

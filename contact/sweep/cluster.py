@@ -16,7 +16,7 @@ import re
 from concurrent.futures import ThreadPoolExecutor
 from concurrent.futures import TimeoutError as FutureTimeout
 
-from .sweepspec import SweepError
+from .spec import SweepError
 
 __all__ = [
     "ALLOWED_FAILURES", "SCHEDULER_TIMEOUT", "THREAD_VARIABLES", "check_address", "client",

@@ -32,9 +32,9 @@ from typing import Any
 
 import numpy as np
 
-from ._toml import MISSING, TomlReader, tomllib
-from .errors import ContactError
-from .scene.read import load_scene
+from .._toml import MISSING, TomlReader, tomllib
+from ..errors import ContactError
+from ..scene.read import load_scene
 
 __all__ = [
     "MAX_RUNS", "METRICS", "Sweep", "SweepError", "SweepRun", "dump_toml", "expand", "load_sweep",

@@ -36,7 +36,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from .hand.fingers import part_letters
+from ..hand.fingers import part_letters
 
 __all__ = [
     "FRAME_KEYS",

@@ -1,6 +1,6 @@
 """``python -m contact.sweep SWEEP.toml``: many scenes run on a Dask cluster.
 
-The sweep file (:mod:`contact.sweepspec`, ``docs/sweep.md``) names a base scene and the keys
+The sweep file (:mod:`contact.sweep.spec`, ``docs/sweep.md``) names a base scene and the keys
 to vary; each combination is written as ``runs/NNNN/scene.toml`` in the sweep's folder and
 loaded before anything runs. Each run is one :func:`contact.grasp.run` into
 ``runs/NNNN/results`` on a Dask worker: an embedded ``distributed.LocalCluster`` (processes,
@@ -15,17 +15,17 @@ at once: together they take its ``nthreads`` threads).
 
 Faults: a run that raises or exits 2 or more is a failed row and the sweep goes on; a run
 whose worker process dies is resubmitted by the scheduler (up to
-:data:`contact.sweepcluster.ALLOWED_FAILURES` deaths, then a ``KilledWorker`` failed row).
+:data:`contact.sweep.cluster.ALLOWED_FAILURES` deaths, then a ``KilledWorker`` failed row).
 A run whose results folder is complete for the same scene text is not redone. The table is
-``sweep.csv`` (:mod:`contact.sweeptable`) with a plot, ``sweep.png``.
+``sweep.csv`` (:mod:`contact.sweep.table`) with a plot, ``sweep.png``.
 
-Bounds: a sweep has at most :data:`contact.sweepspec.MAX_RUNS` runs; the embedded
+Bounds: a sweep has at most :data:`contact.sweep.spec.MAX_RUNS` runs; the embedded
 cluster's workers and each run's threads are held to the cores (and the workers to the runs
 to do), with a warning saying so.
 
 Order: the sweep file, the scheduler's address, every generated scene (loaded from a
 temporary folder) and the output folder are checked first; then the cluster is started or
-the scheduler asked (a handshake within :data:`contact.sweepcluster.SCHEDULER_TIMEOUT`);
+the scheduler asked (a handshake within :data:`contact.sweep.cluster.SCHEDULER_TIMEOUT`);
 only then are the run folders written. Bad input thus leaves nothing behind.
 
 Exit status (:data:`EXIT_STATUS`): 0 every run done, 1 a run failed, 2 bad input: a bad
@@ -50,14 +50,14 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from . import sweepcluster
-from .cli import guarded
-from .errors import ContactError
-from .grasp import run as grasp_run
-from .scene.read import load_scene
-from .sweepcluster import check_address, client, hold
-from .sweepspec import Sweep, SweepError, SweepRun, expand, load_sweep
-from .sweeptable import columns, figures, plot, read_summary, write_table
+from ..app.cli import guarded
+from ..errors import ContactError
+from ..grasp import run as grasp_run
+from ..scene.read import load_scene
+from . import cluster
+from .cluster import check_address, client, hold
+from .spec import Sweep, SweepError, SweepRun, expand, load_sweep
+from .table import columns, figures, plot, read_summary, write_table
 
 __all__ = [
     "EXIT_STATUS", "RETRIES", "TEST_KILL_ONCE", "main", "run_one", "sweep",
@@ -127,7 +127,7 @@ def run_one(
     -------
     dict
         ``status`` (``"done"`` or ``"failed: ..."``), ``exit_status``, ``seconds`` and, when
-        done, the figures of :func:`contact.sweeptable.figures`.
+        done, the figures of :func:`contact.sweep.table.figures`.
     """
     t0 = time.perf_counter()
     threads = threads or 1  # a worker runs nthreads tasks at once: one thread each
@@ -272,11 +272,11 @@ def sweep(
         else:  # an existing cluster's workers: one thread a task slot unless told
             n, share = 0, threads or 1
         try:
-            cl, cluster = client(scheduler, n, share)
+            cl, local = client(scheduler, n, share)
         except (OSError, TimeoutError) as exc:
             why = (str(exc).splitlines() or [""])[0] or type(exc).__name__
             print(f"error: scheduler {scheduler}: does not answer within "
-                  f"{sweepcluster.SCHEDULER_TIMEOUT:g} s ({why})", file=sys.stderr)  # fmt: skip
+                  f"{cluster.SCHEDULER_TIMEOUT:g} s ({why})", file=sys.stderr)  # fmt: skip
             return 2
         except RuntimeError as exc:  # spawned workers re-import an unguarded script
             line = (str(exc).splitlines() or [""])[0]
@@ -296,8 +296,8 @@ def sweep(
             try:
                 cl.close()
             finally:
-                if cluster is not None:
-                    cluster.close()
+                if local is not None:
+                    local.close()
     folder.mkdir(parents=True, exist_ok=True)
     ordered = [rows[i] for i in sorted(rows)]
     write_table(ordered, columns(sw.keys, sw.least_grip), folder)
@@ -380,6 +380,3 @@ def main(argv: Sequence[str] | None = None) -> int:
         "the runs done are kept: run the sweep again to resume",
     )  # fmt: skip
 
-
-if __name__ == "__main__":
-    sys.exit(main())

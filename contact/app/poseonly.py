@@ -33,15 +33,15 @@ import numpy as np
 
 import fem
 
-from .errors import ContactError, InputError, OutputError, TargetError
-from .hand.fingers import fingertips, node_parts
-from .hand.posing import Pose
-from .output.plainjson import jsonable
-from .output.staging import make_staging, write_atomic
-from .output.vtufields import write_pvd
+from ..errors import ContactError, InputError, OutputError, TargetError
+from ..hand.fingers import fingertips, node_parts
+from ..hand.posing import Pose
+from ..output.plainjson import jsonable
+from ..output.staging import make_staging, write_atomic
+from ..output.vtufields import write_pvd
+from ..run import GraspRun
+from ..scene.read import load_scene
 from .report import pose_line
-from .run import GraspRun
-from .scene.read import load_scene
 
 __all__ = ["pose_frame", "pose_only"]
 

@@ -38,11 +38,11 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
-from .errors import ContactError
-from .run import GraspRun
-from .scene import model
-from .scene.spec import Scene
-from .solver.results import FrameResult
+from ..errors import ContactError
+from ..run import GraspRun
+from ..scene import model
+from ..scene.spec import Scene
+from ..solver.results import FrameResult
 
 __all__ = [
     "BOUND",

@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 
 import fem
 
-from .errors import BallError, ObjectError
+from ..errors import BallError, ObjectError
 
 __all__ = [
     "LOCKING_NOTE",
@@ -370,7 +370,7 @@ def _check_file(mesh: fem.Mesh, spec: BallSpec, path: Path) -> None:
 
 def _read_file(path: Path) -> fem.Mesh:
     """The ball's volume mesh from a file; a closed surface is filled with tetrahedra."""
-    from .objects.formats import SURFACE_FORMATS, read_surface_file
+    from .formats import SURFACE_FORMATS, read_surface_file
 
     surface: Any = path
     if path.suffix.lower() in SURFACE_FORMATS:  # read and checked here, not by meshio or VTK

@@ -16,9 +16,9 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from .output.summary import update_summary
+from ..output.summary import update_summary
+from ..solver.results import FrameResult
 from .report import SUMMARY_KEYS, parse_line, summary_line
-from .solver.results import FrameResult
 
 __all__ = [
     "NOT_SOLVED_KEYS",
