@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from benchmarks import convergence
+from benchmarks import convergence, convergence_rates
 
 
 @pytest.fixture(scope="module")
@@ -94,7 +94,7 @@ def test_fitted_rate():
     assert convergence.fitted_rate(h, -3 * h) == pytest.approx(1.0, abs=1e-12)
     assert math.isnan(convergence.fitted_rate(h, [0.1, 0.01, -0.001, -0.002]))
     assert math.isnan(convergence.fitted_rate(h[:1], [0.1]))
-    row = convergence._rate_row(
+    row = convergence_rates._rate_row(
         "hertz",
         "s",
         [{"h": x, "e": e} for x, e in zip(h, [0.1, 0.01, -0.001, -0.002])],
