@@ -6,7 +6,7 @@ The scene of :mod:`benchmarks.patch`: the octant ``x, y >= 0, z <= R`` of an ela
 displacement on the three cut planes, the table ``z = 0`` advanced by ``d``. Ours is
 patch's press (:class:`~contact.solver.ElasticBody` with ``bbar=False``,
 :func:`~contact.cases.solve_rigid_contact`); SfePy's is the penalty contact of
-:mod:`benchmarks.sfepy_hertz` (:func:`~benchmarks.sfepy_hertz.solve_sfepy_press`:
+:mod:`benchmarks.sfepy_hertz` (:func:`~benchmarks.sfepy_hertz_problem.solve_sfepy_press`:
 ``dw_lin_elastic`` + ``dw_contact_plane``, ``nls.newton``, ``ls.pypardiso``) on the very
 same mesh (cell type ``3_4``) and the same prescribed DOFs. On linear tetrahedra both codes
 have the same discrete model, so the contact treatment alone tells them apart.
@@ -31,7 +31,8 @@ mesh past :data:`LARGEST_BUDGET_S` is left out and said so.
 
 The meshes come from patch's cache (:data:`benchmarks.patch.MESHES`; fTetWild takes
 minutes on the largest). SfePy is an optional extra (``pip install .[benchmarks]``);
-without it the study writes a note and returns no rows.
+without it the study writes a note and returns no rows. The accuracy rule, the verdict
+and the table's columns are in :mod:`benchmarks.sfepy_patch_report`.
 
 Run it with ``python -m benchmarks.sfepy_patch [--quick] [--out DIR]``.
 """
@@ -53,7 +54,6 @@ from contact.geometry import Plane
 from contact.solver import ElasticBody
 
 from ._common import (
-    Column,
     load_average,
     machine_info,
     markdown_table,
@@ -63,14 +63,22 @@ from ._common import (
     write_markdown,
 )
 from .patch import NU, RADIUS, E, _press, mesh_of
-from .sfepy_hertz import (
+from .sfepy_hertz import load1, sfepy_times
+from .sfepy_hertz_problem import (
     CONTACT_ORDER,
-    load1,
     sfepy_available,
-    sfepy_missing,
-    sfepy_times,
     sfepy_version,
     solve_sfepy_press,
+)
+from .sfepy_hertz_report import sfepy_missing
+from .sfepy_patch_report import (
+    COLUMNS,
+    CSV_KEYS,
+    GOAL_TIME_RATIO,
+    SAME_ACCURACY_PP,
+    _fastest,
+    same_accuracy,
+    verdicts,
 )
 
 __all__ = [
@@ -102,10 +110,6 @@ DEPTHS: dict[float, tuple[float, ...]] = {
 #: study's and 3e3, for where 1e3's sinking in (``p / k``) costs more than the margin and
 #: 1e4 takes several times the Newton steps.
 PENALTIES: tuple[float, ...] = (1e3, 3e3, 1e4, 1e5)
-#: SfePy's errors may exceed ours by this much (percentage points) for the same accuracy.
-SAME_ACCURACY_PP = 0.5
-#: The goal: ours in at most this fraction of SfePy's time at the same accuracy.
-GOAL_TIME_RATIO = 0.1
 #: Our solve is timed as the best of this many runs (one with ``--quick``).
 REPEAT = 3
 #: SfePy's seconds on the largest mesh (the sweep and its repeat) are kept under this.
@@ -115,24 +119,6 @@ NEWTON_LIMIT = 50
 #: Growth of SfePy's seconds per Newton step with the DOFs (a tangent assembly and a
 #: PARDISO factorisation each): predicts the first run on the largest mesh.
 STEP_GROWTH = 1.3
-
-
-def same_accuracy(row: dict[str, Any], ours: dict[str, Any]) -> bool:
-    """Whether a SfePy run converged with both errors within ours + SAME_ACCURACY_PP."""
-    return (
-        row["converged"] == "yes"
-        and abs(row["radius_err_pct"]) <= abs(ours["radius_err_pct"]) + SAME_ACCURACY_PP
-        and abs(row["pressure_err_pct"]) <= abs(ours["pressure_err_pct"]) + SAME_ACCURACY_PP
-    )
-
-
-def _excess(row: dict[str, Any], ours: dict[str, Any]) -> float:
-    """How far (percentage points) a run's worse error lies past ours: the least is the most
-    accurate run."""
-    return max(
-        abs(row["radius_err_pct"]) - abs(ours["radius_err_pct"]),
-        abs(row["pressure_err_pct"]) - abs(ours["pressure_err_pct"]),
-    )
 
 
 def _measured(
@@ -229,53 +215,6 @@ def _theirs_again(mesh: fem.Mesh, body: ElasticBody, plane: Plane, row: dict[str
         row["load"] = load_average()
 
 
-def _fastest(rows: list[dict], ours: dict) -> dict | None:
-    """SfePy's fastest run at the same accuracy as ``ours`` (same mesh and press)."""
-    same = [r for r in rows if r["code"] == "SfePy" and r["same_accuracy"] == "yes"]
-    return min(same, key=lambda r: r["total_s"]) if same else None
-
-
-def verdicts(rows: list[dict]) -> tuple[list[str], bool | None]:
-    """One summary line per mesh and press, and whether the goal is met on all of them.
-
-    Returns
-    -------
-    lines : list of str
-    met : bool or None
-        None when no SfePy run was made.
-    """
-    lines, met = [], []
-    for ours in (r for r in rows if r["code"] == "ours"):
-        key = (ours["fine_size"], ours["depth"])
-        theirs = [r for r in rows if r["code"] == "SfePy" and (r["fine_size"], r["depth"]) == key]
-        head = f"- {ours['dofs']:,} DOFs, d/R {ours['depth']:g}: "
-        if not theirs:
-            lines.append(head + "no SfePy run.")
-            continue
-        best = _fastest(theirs, ours)
-        note = ""
-        if best is None:
-            best = min(theirs, key=lambda r: (r["converged"] != "yes", _excess(r, ours)))
-            note = (
-                " (no SfePy run reaches the same accuracy: against its most accurate run, "
-                f"k = {best['penalty']:.0e}, {_excess(best, ours):+.2f} points past ours"
-                + ("" if best["converged"] == "yes" else ", not converged")
-                + ")"
-            )
-        ratio = ours["total_s"] / best["total_s"]
-        ok = ratio <= GOAL_TIME_RATIO
-        met.append(ok)
-        lines.append(
-            head + f"ours / SfePy's fastest run at the same accuracy = {ratio:.3f} "
-            f"(goal <= {GOAL_TIME_RATIO:g}: {'met' if ok else 'missed'}); ours "
-            f"{ours['total_s']:.2f} s (radius {ours['radius_err_pct']:+.2f} %, peak p "
-            f"{ours['pressure_err_pct']:+.2f} %), SfePy k = {best['penalty']:.0e} "
-            f"{best['total_s']:.2f} s (radius {best['radius_err_pct']:+.2f} %, peak p "
-            f"{best['pressure_err_pct']:+.2f} %, {best['runs']} run(s))" + note + "."
-        )
-    return lines, (all(met) if met else None)
-
-
 def _penalties(largest: bool, before: list[dict]) -> list[float]:
     """The penalties to run: all, or on the largest mesh from the softest that had the same
     accuracy on the mesh before on (a softer one's error, ``p / k`` of sinking in, does not
@@ -359,55 +298,6 @@ def _warm_up(mesh: fem.Mesh) -> None:
     body, planes, _secs, _res = _press(mesh, 0.01)
     solve_sfepy_press(mesh, body, planes[0], PENALTIES[0], radius=RADIUS)
     gc.collect()
-
-
-COLUMNS = (
-    Column("dofs", "DOFs", ","),
-    Column("depth", "d/R", ".3f"),
-    Column("cells_per_a", "cells per a", ".1f"),
-    Column("code", "code", ""),
-    Column("penalty", "penalty k (E/R)", ".0e"),
-    Column("iterations", "iterations", "d"),
-    Column("converged", "converged", ""),
-    Column("contacts", "contact nodes", "d"),
-    Column("radius_err_pct", "radius err (%)", "+.2f"),
-    Column("pressure_err_pct", "peak p err (%)", "+.2f"),
-    Column("same_accuracy", "same accuracy", ""),
-    Column("force_vs_ours_pct", "force vs ours (%)", "+.3f"),
-    Column("total_s", "time (s)", ".2f"),
-    Column("runs", "runs", "d"),
-    Column("load1", "load (1 min)", ".1f"),
-    Column("ours_over_this", "ours / this", ".3f"),
-)
-
-CSV_KEYS = [
-    "fine_size",
-    "dofs",
-    "depth",
-    "cells_per_a",
-    "code",
-    "penalty",
-    "iterations",
-    "converged",
-    "contacts",
-    "force",
-    "force_vs_ours_pct",
-    "radius_err_pct",
-    "pressure_err_pct",
-    "same_accuracy",
-    "equilibrium",
-    "total_s",
-    "runs",
-    "assemble_s",
-    "factor_s",
-    "setup_s",
-    "matrix_s",
-    "solve_s",
-    "residual_s",
-    "ours_over_this",
-    "load1",
-    "load",
-]
 
 
 def run(quick: bool = False, out: str | Path | None = None) -> list[dict]:
