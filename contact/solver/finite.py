@@ -286,7 +286,10 @@ def solve_finite_frame(
             break
         moves = {}
         steps_now = {b.name: res.displacement[b.name].ravel() for b in finite}
-        mixed = _anderson(history, u, steps_now, [b.name for b in finite if b.free])
+        # mixing takes up the material tangent's linear rate; the full tangent's own steps
+        # are left whole (mixed, a squeezed ball's cycle between contact sets grows)
+        on_material = [b.name for b in finite if b.free and not full[b.name]]
+        mixed = _anderson(history, u, steps_now, on_material)
         if step < ANDERSON_FROM or not _slow(history):
             mixed = {}
         residual = 0.0
@@ -306,7 +309,7 @@ def solve_finite_frame(
             forces = res.contact_force[b.name]
             residual = max(residual, _residual(b, u[b.name], f_int, forces, held))
             last_move[b.name].append(moves[b.name])
-            if b.free and full[b.name] and _linear_rate(last_move[b.name]):
+            if b.free and full[b.name] and b.follower is None and _linear_rate(last_move[b.name]):
                 slow_full.add(b.name)
         clock["checks"] += time.perf_counter() - t2
         log.debug(
@@ -386,9 +389,12 @@ def _anderson(history, u, steps, names, depth: int = ANDERSON):
     mix is the type-II update of the fixed point ``u -> u + du``.
     """
     if not names:
+        history.clear()  # a mix spans consecutive steps of the same bodies only
         return {}
     x = np.concatenate([u[n] for n in names])
     f = np.concatenate([steps[n] for n in names])
+    if history and history[-1][0].size != x.size:
+        history.clear()
     history.append((x.copy(), f.copy()))
     del history[:-(depth + 1)]
     new = x + f
