@@ -5,12 +5,13 @@ pseudo-inverse, rigid part removed), the compliance ``W = E C E^T`` of constrain
 ``E`` is the Schur complement of extra prescribed DOFs on top of the one factorisation
 (:mod:`fem.saddle`). Rows on DOFs marked before the factorisation take partial solves
 through its trailing block; a row off them a back-solve, until those have cost a
-factorisation: then the marks are widened and the body refactored.
+factorisation: then the marks are widened and the body refactored. The costs are the
+factor's operation counts, not times: the same rows take the same path on any machine,
+at any load.
 """
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 from itertools import pairwise
 
@@ -58,7 +59,10 @@ class ConstraintRows:
         Marks the factored matrix's rows it is given too and refactors, returning
         whether it did (see the notes).
     buy : float
-        Seconds of the factorisation (what ``widen`` costs).
+        Floating-point operations of the factorisation (what ``widen`` costs).
+    column : float
+        Floating-point operations of one back-solve (a column of ``inverse``): the
+        factor's nonzeros twice over, a multiply and an add each.
 
     Notes
     -----
@@ -87,11 +91,13 @@ class ConstraintRows:
         j_phi: Callable[[], NDArray[np.float64]] | None = None,
         widen: Callable[[NDArray[np.int64]], bool] | None = None,
         buy: float = np.inf,
+        column: float = 0.0,
     ) -> None:
         self._inverse = inverse
         self._widen = widen
         self._buy = buy
-        #: Seconds of back-solves so far (rows off the marks).
+        self._column = column
+        #: Floating-point operations of back-solves so far (rows off the marks).
         self.rent = 0.0
         self._partial = partial
         self._frow = frow
@@ -192,9 +198,8 @@ class ConstraintRows:
         cross = np.zeros((total, k))
         out = np.flatnonzero(~inside)
         if out.size:
-            t = time.perf_counter()
             z = self._inverse(rows[out].T.toarray())  # C r, full
-            self.rent += time.perf_counter() - t
+            self.rent += self._column * out.size
             cross[:, out] = self._rows @ z
             self._zout = np.hstack([self._zout, z]) if self._zout.size else z
             self._out_rows = np.concatenate([self._out_rows, old + out])

@@ -52,7 +52,7 @@ def test_rows_off_the_marks_past_a_factorisation_s_cost_are_marked_and_refactore
     ref, s = make(False), make(True)
     assert s.mark(fem.node_dofs(top))
     s.factorize()
-    s._last_factor = 0.0  # a factorisation that costs nothing: any rent passes it
+    s._factor_cost = lambda: 0.0  # a factorisation that costs nothing: any rent passes it
     e1 = sp.vstack([_rows(mesh.n_dofs, top, 1), _rows(mesh.n_dofs, low, 2)]).tocsr()
     e2 = sp.vstack([e1, _rows(mesh.n_dofs, high, 3)]).tocsr()
     for e in (e1, e2):
@@ -108,3 +108,28 @@ def test_a_refused_widening_rents_from_then_on() -> None:
     assert [g[0, 0] for g in got] == pytest.approx(np.diag(inv)[1:], rel=1e-14)
     assert len(asked) == 1 and asked[0].tolist() == [1]  # asked once, refused
     assert rows.compliance(e) == pytest.approx(inv, rel=1e-14)
+
+
+def test_renting_ends_where_the_back_solves_operations_pass_the_factorisation_s() -> None:
+    # rows off the marks cost `column` operations each; the row after the rent passes
+    # `buy` widens the marks: counted operations, not seconds, so the same rows take the
+    # same path on any machine at any load
+    a = np.diag([5.0, 4.0, 3.0, 2.0, 1.0]) + 0.1
+    inv = np.linalg.inv(a)
+    asked: list[int] = []
+
+    def widen(frows: np.ndarray) -> bool:
+        asked.append(len(seen))
+        return False
+
+    rows = ConstraintRows(
+        lambda r: inv @ r, lambda b: inv[:1, :1] @ b, np.arange(5), np.array([0]), 5,
+        widen=widen, buy=2.5, column=1.0,
+    )  # fmt: skip
+    e = sp.csr_matrix(np.eye(5))
+    seen = []
+    for i in range(1, 5):
+        seen.append(i)
+        rows.compliance(e[[i]])
+    assert rows.rent == 4.0  # every row rented: the widening was refused
+    assert asked == [4]  # asked once, at the fourth row: after three rented rows cost 3 > 2.5
