@@ -26,7 +26,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
-from .constraintrows import ConstraintRows
+from .constraintrows import ConstraintRows, factor_cost
 from .errors import SolverError
 from .linsolve import Factorization, factorize, resolve_backend
 from .saddle import (
@@ -53,11 +53,6 @@ log = logging.getLogger(__name__)
 #: whose Schur complement answers the partial solves (``fem.linsolve.SCHUR_MAX``); a row
 #: off the marks costs a full solve instead. See benchmarks/results/patch.md.
 MARK_LIMIT = 4800
-#: What a factorisation costs besides its operations (the ordering, the set-up), in
-#: back-solves: with it, the operation counts that decide between renting back-solves and
-#: refactoring (:class:`fem.constraintrows.ConstraintRows`) follow the times measured with
-#: PARDISO on 4k to 35k DOFs (a factorisation 134 to 259 block back-solves long).
-FACTOR_OVERHEAD = 60
 
 
 @dataclass(frozen=True)
@@ -374,24 +369,16 @@ class StaticSolver:
         while s is None:
             if self._constraints is None:
                 self._constraints = ConstraintRows(
-                    self._counted_inverse,
-                    self._partial_solve,
-                    self._frow,
-                    self._fact.marked,
-                    self._to_factor.shape[0],
-                    modes=self.modes if self.free_body else None,
-                    j_phi=self._j_phi if self.free_body else None,
-                    widen=self._mark_rows,
-                    buy=self._factor_cost(),
-                    column=4.0 * self._fact.factor_nnz,
-                )
+                    self._counted_inverse, self._partial_solve, self._frow, self._fact.marked,
+                    self._to_factor.shape[0], modes=self.modes if self.free_body else None,
+                    j_phi=self._j_phi if self.free_body else None, widen=self._mark_rows,
+                    buy=self._factor_cost(), column=4.0 * self._fact.factor_nnz,
+                )  # fmt: skip
             s = self._constraints.compliance(rows)
         return s, (e @ self.placing_modes) if self.free_body else None
 
     def _factor_cost(self) -> float:
-        """Operations of a factorisation, its set-up counted (:data:`FACTOR_OVERHEAD`)."""
-        fact = self._fact
-        return fact.factor_flops + FACTOR_OVERHEAD * 4.0 * fact.factor_nnz
+        return factor_cost(self._fact)  # what widening the marks costs, in operations
 
     def _counted_inverse(self, r: NDArray[np.float64]) -> NDArray[np.float64]:
         """:meth:`apply_inverse` of columns ``(n_free, k)``, counted as back-solves."""
