@@ -14,12 +14,16 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from itertools import pairwise
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from .saddle import csr_entries
+
+if TYPE_CHECKING:
+    from .linsolve import Factorization
 
 __all__ = ["BLOCK", "FACTOR_OVERHEAD", "ROW_CACHE", "ConstraintRows", "factor_cost"]
 
@@ -34,7 +38,7 @@ ROW_CACHE = 8192
 FACTOR_OVERHEAD = 60
 
 
-def factor_cost(fact) -> float:
+def factor_cost(fact: Factorization) -> float:
     """Operations of a factorisation (``factor_flops``), its set-up counted (``factor_nnz``)."""
     return fact.factor_flops + FACTOR_OVERHEAD * 4.0 * fact.factor_nnz
 
