@@ -30,7 +30,8 @@ class BodyPicture:
     ----------
     name : str
     surface : pyvista.PolyData
-        The deformed outer surface, point data ``von_mises`` (Pa, nodal average).
+        The deformed outer surface, point data ``von_mises`` (Pa, nodal average) and
+        ``contact_pressure`` (Pa).
     top : float
         The body's largest cell-average von Mises stress in the frame (Pa).
     noise : float
@@ -39,6 +40,8 @@ class BodyPicture:
         Deformed positions of its nodes in contact.
     points : ndarray (N, 3)
         All its deformed nodal positions (for the framing).
+    pushes : ndarray (k,)
+        The normal contact forces of the nodes of ``contact`` (N).
     """
 
     name: str
@@ -47,6 +50,7 @@ class BodyPicture:
     noise: float
     contact: NDArray[np.float64]
     points: NDArray[np.float64]
+    pushes: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
 
 
 @dataclass
@@ -71,6 +75,9 @@ class Picture:
     status : StatusMarkers or None
         The stick and slip contact nodes where the frame has friction (its
         ``status_NNNN.png``), else None.
+    pressure : str or None
+        The body whose contact pressure the frame's ``pressure_NNNN.png`` draws (the
+        held, smallest one, where it touches), else None.
     """
 
     index: int
@@ -82,3 +89,4 @@ class Picture:
     converged: bool = True
     stop_reason: str = "converged"
     status: StatusMarkers | None = None
+    pressure: str | None = None

@@ -24,11 +24,13 @@ A frame's picture has a main view of the grasp and, beside it, one view per body
   stop reason.
 
 A frame with friction also gets a picture of its stick and slip contacts
-(:mod:`contact.output.status`) in the main view. The pictures need off-screen OpenGL
-(:func:`contact.output.rendering.rendering_available`, read at use so that tests can replace it);
-without it, or when VTK fails, they are skipped with a warning rather than failing a run.
-They are rendered in a child process (:func:`contact.output.rendering.run_in_child`): VTK can
-abort the process that renders, which then costs the pictures, not the results.
+(:mod:`contact.output.status`) in the main view, and a frame whose held body touches a
+picture of its contact pressure (:mod:`contact.output.pressure`). The pictures need
+off-screen OpenGL (:func:`contact.output.rendering.rendering_available`, read at use so
+that tests can replace it); without it, or when VTK fails, they are skipped with a
+warning rather than failing a run. They are rendered in a child process
+(:func:`contact.output.rendering.run_in_child`): VTK can abort the process that renders,
+which then costs the pictures, not the results.
 
 Every file is written atomically (:func:`contact.output.staging.write_atomic`).
 """
@@ -54,6 +56,7 @@ from . import rendering
 from .drawing import Bar, draw_body, draw_planes, draw_pushes, write_verdict
 from .framing import View, body_views, focus_box, grasp_axis, held_view, main_view
 from .picturedata import BodyPicture, Picture
+from .pressure import PressureScale, contact_pressure, pressure_views, shoot_pressure
 from .staging import write_atomic
 from .status import draw_status
 
@@ -88,6 +91,7 @@ def deformed_surface(
     mesh: fem.Mesh,
     displacement: NDArray[np.float64],
     von_mises: dict[str, NDArray[np.float64]],
+    pressure: NDArray[np.float64] | None = None,
 ) -> pyvista.PolyData:
     """The outer surface of a deformed body with its nodal-average von Mises stress.
 
@@ -99,13 +103,19 @@ def deformed_surface(
         Nodal displacements.
     von_mises : dict of str to ndarray
         Cell-average von Mises stress per cell type.
+    pressure : ndarray (N,), optional
+        Nodal contact pressure (Pa, :func:`contact.output.pressure.contact_pressure`).
 
     Returns
     -------
     pyvista.PolyData
-        The surface at ``mesh.points + displacement``, point data ``von_mises``.
+        The surface at ``mesh.points + displacement``, point data ``von_mises`` (and
+        ``contact_pressure``).
     """
-    grid = to_pyvista(mesh, point_data={"von_mises": nodal_average(mesh, von_mises)})
+    data = {"von_mises": nodal_average(mesh, von_mises)}
+    if pressure is not None:
+        data["contact_pressure"] = np.asarray(pressure, dtype=np.float64)
+    grid = to_pyvista(mesh, point_data=data)
     grid.points = mesh.points + displacement
     try:
         return grid.extract_surface(algorithm="dataset_surface")
@@ -142,13 +152,15 @@ def body_picture(
     """
     x = mesh.points + displacement
     mats = materials.values() if isinstance(materials, Mapping) else [materials]
+    fn = np.asarray(fields["normal_force"])
     return BodyPicture(
         name,
-        deformed_surface(mesh, displacement, von_mises),
+        deformed_surface(mesh, displacement, von_mises, contact_pressure(mesh, x, fn)),
         float(max(v.max() for v in von_mises.values())),
         _NOISE * max(float(m.E) for m in mats),
-        x[np.asarray(fields["normal_force"]) > 0],
+        x[fn > 0],
         x,
+        fn[fn > 0],
     )
 
 
@@ -159,12 +171,13 @@ def render_pictures(
     window_size: tuple[int, int],
     camera: tuple | None = None,
 ) -> str:
-    """Render ``folder/frame_NNNN.png`` for every picture (and ``status_NNNN.png``); say how.
+    """Render ``folder/frame_NNNN.png`` for every picture (``status_``, ``pressure_``); say how.
 
     Parameters
     ----------
     pictures : sequence of Picture
-        The frames; those with ``status`` also get ``status_NNNN.png``.
+        The frames; those with ``status`` also get ``status_NNNN.png``, those with
+        ``pressure`` ``pressure_NNNN.png``.
     folder : Path
         Where the PNG files go (created; removed again when rendering fails).
     window_size : (int, int)
@@ -254,13 +267,31 @@ def _render_all(
     size = float((box[1] - box[0]).max())
     arrow = _ARROW * size / grip if grip > 0 else 0.0
     dot = _DOT * min(window_size)
+    pressed = _pressure_views(pictures)
     for pic in pictures:
         image = _shoot(window_size, pic, main, views, bars, (held, arrow), size)
         write_atomic(folder / f"frame_{pic.index:04d}.png", rendering.png_bytes(image))
         if pic.status is not None:
             image = _shoot_status(window_size, pic, main, dot)
             write_atomic(folder / f"status_{pic.index:04d}.png", rendering.png_bytes(image))
+        if pic.pressure is not None:
+            views, bar = pressed[pic.pressure]
+            image = shoot_pressure(window_size, pic, pic.pressure, views, bar)
+            write_atomic(folder / f"pressure_{pic.index:04d}.png", rendering.png_bytes(image))
     log.info("%d pictures rendered", len(pictures))
+
+
+def _pressure_views(
+    pictures: Sequence[Picture],
+) -> dict[str, tuple[list[View], PressureScale]]:
+    """The pressure pictures' cameras and colour scale per body drawn, over the run."""
+    out = {}
+    for name in dict.fromkeys(p.pressure for p in pictures if p.pressure is not None):
+        mine = [b for p in pictures for b in p.bodies if b.name == name and p.pressure == name]
+        views = pressure_views([(b.contact, b.pushes) for b in mine], [b.points for b in mine])
+        top = max(float(np.max(b.surface["contact_pressure"], initial=0.0)) for b in mine)
+        out[name] = (views, PressureScale.of(name, top))
+    return out
 
 
 def _triangles(surfaces: Sequence[pyvista.PolyData], box: NDArray[np.float64]) -> NDArray:

@@ -301,6 +301,7 @@ def frame_entry(
     max_von_mises: Mapping[str, float],
     picture: str | None,
     status_picture: str | None = None,
+    pressure_picture: str | None = None,
     extra: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """The ``summary.json`` record of one frame.
@@ -321,6 +322,9 @@ def frame_entry(
         The frame's picture, relative to the results folder, or None without pictures.
     status_picture : str or None
         Its stick and slip picture, likewise, or None (no pictures or no friction).
+    pressure_picture : str or None
+        Its held body's contact pressure picture, likewise, or None (no pictures or no
+        contact on it).
     extra : mapping, optional
         More JSON-able items (a key of the record may not be repeated).
 
@@ -372,7 +376,12 @@ def frame_entry(
         "friction": friction_entry(result.friction),
         "max_von_mises": dict(max_von_mises),
         "history": _history(result),
-        "files": {"vtu": dict(vtu), "picture": picture, "status_picture": status_picture},
+        "files": {
+            "vtu": dict(vtu),
+            "picture": picture,
+            "status_picture": status_picture,
+            "pressure_picture": pressure_picture,
+        },
         "timings": {k: float(v) for k, v in sorted(result.timings.items())},
     }
     if extra:

@@ -148,7 +148,7 @@ class ResultsWriter:
         existing folder or file is refused. What dead runs left beside it is cleaned.
     pictures : bool
         Render ``frames/frame_NNNN.png`` (and ``frames/status_NNNN.png`` for a frame with
-        friction).
+        friction, ``frames/pressure_NNNN.png`` for one whose held body touches).
     gif : bool
         Assemble ``grasp.gif`` from the pictures (only with ``pictures``).
     window_size : (int, int)
@@ -331,6 +331,9 @@ class ResultsWriter:
             max_vm[name] = float(max(v.max() for v in vm.values()))
             if self.pictures:
                 drawn.append(body_picture(name, body.mesh, body.materials, u, vm, fields[name]))
+        # the held (smallest) body's contact pressure gets its own picture where it touches
+        held = min(bodies, key=lambda n: float(np.linalg.norm(np.ptp(deformed[n], axis=0))))
+        pressed = held if self.pictures and fields[held]["normal_force"].max() > 0 else None
         status = None
         if self.pictures and result.friction is not None:
             status = status_markers(deformed, {n: fields[n]["contact_status"] for n in bodies})
@@ -342,6 +345,7 @@ class ResultsWriter:
             max_von_mises=max_vm,
             picture=f"frames/frame_{index:04d}.png" if self.pictures else None,
             status_picture=f"frames/status_{index:04d}.png" if status is not None else None,
+            pressure_picture=f"frames/pressure_{index:04d}.png" if pressed else None,
             extra=extra,
         )
         named = {n: (b.mesh, tuple(b.region_names)) for n, b in bodies.items() if b.region_names}
@@ -361,6 +365,7 @@ class ResultsWriter:
                     converged=bool(result.converged),
                     stop_reason=str(result.stop_reason),
                     status=status,
+                    pressure=pressed,
                 )
             )
         entry["timings"]["write"] = _clock() - t0

@@ -170,7 +170,9 @@ def test_status_picture_written_for_friction_frames(tmp_path):
     assert files[0]["status_picture"] == "frames/status_0000.png"
     assert files[1]["status_picture"] is None
     names = sorted(p.name for p in (out / "frames").iterdir())
-    assert names == ["frame_0000.png", "frame_0001.png", "status_0000.png"]
+    # the ball (the smaller body) touches in frame 0 only: its pressure picture
+    assert [f["pressure_picture"] for f in files] == ["frames/pressure_0000.png", None]
+    assert names == ["frame_0000.png", "frame_0001.png", "pressure_0000.png", "status_0000.png"]
     from PIL import Image
 
     img = np.asarray(Image.open(out / "frames" / "status_0000.png").convert("RGB")).astype(int)
@@ -181,3 +183,9 @@ def test_status_picture_written_for_friction_frames(tmp_path):
 
     assert pixels((0x1F, 0x77, 0xB4)) > 5  # stick: a blue dot and the legend
     assert pixels((0xFF, 0x7F, 0x0E)) > 5  # slip: orange
+
+    img = np.asarray(Image.open(out / "frames" / "pressure_0000.png").convert("RGB")).astype(int)
+    assert img.shape[1] == 320
+    # the node of the largest pressure is the scale's top (dark red); the rest grey
+    assert pixels((0x80, 0x00, 0x26)) > 5
+    assert pixels((0xD0, 0xD0, 0xD0)) > 100

@@ -414,8 +414,11 @@ def test_real_frames_with_pictures_gif_and_convergence(tmp_path):
         out = w.finish({"name": "ball on pad"})
     summary = json.loads((out / "summary.json").read_text())
     assert summary["pictures"] == "written"
-    pngs = sorted((out / "frames").glob("*.png"))
+    pngs = sorted((out / "frames").glob("frame_*.png"))
     assert [p.name for p in pngs] == ["frame_0000.png", "frame_0001.png"]
+    # the ball is pressed on the pad in both: its contact pressure pictured
+    pressed = sorted(p.name for p in (out / "frames").glob("pressure_*.png"))
+    assert pressed == ["pressure_0000.png", "pressure_0001.png"]
     assert all(p.stat().st_size > 1000 for p in pngs)
     from PIL import Image
 
