@@ -283,6 +283,7 @@ def solve_finite_frame(
         springs = {b.name: _springs(b, res, lin[b.name], rigid) for b in finite}
         if not res.converged:
             stop = res.stop_reason
+            log.debug("Newton step %d: the linear frame stopped: %s", step, stop)
             break
         moves = {}
         steps_now = {b.name: res.displacement[b.name].ravel() for b in finite}
