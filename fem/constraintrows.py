@@ -25,7 +25,14 @@ from .saddle import csr_entries
 if TYPE_CHECKING:
     from .linsolve import Factorization
 
-__all__ = ["BLOCK", "FACTOR_OVERHEAD", "ROW_CACHE", "ConstraintRows", "factor_cost"]
+__all__ = [
+    "BLOCK",
+    "FACTOR_OVERHEAD",
+    "ROW_CACHE",
+    "ConstraintRows",
+    "back_solve_cost",
+    "factor_cost",
+]
 
 #: Back-solves done at once when building a Schur complement (rows on the marks: all).
 BLOCK = 256
@@ -38,9 +45,14 @@ ROW_CACHE = 8192
 FACTOR_OVERHEAD = 60
 
 
+def back_solve_cost(fact: Factorization) -> float:
+    """Operations of one back-solve: the factor's nonzeros twice, a multiply and an add each."""
+    return 4.0 * fact.factor_nnz
+
+
 def factor_cost(fact: Factorization) -> float:
-    """Operations of a factorisation (``factor_flops``), its set-up counted (``factor_nnz``)."""
-    return fact.factor_flops + FACTOR_OVERHEAD * 4.0 * fact.factor_nnz
+    """Operations of a factorisation (``factor_flops``), its set-up counted in back-solves."""
+    return fact.factor_flops + FACTOR_OVERHEAD * back_solve_cost(fact)
 
 
 class ConstraintRows:
@@ -75,8 +87,8 @@ class ConstraintRows:
     buy : float
         Floating-point operations of the factorisation (what ``widen`` costs).
     column : float
-        Floating-point operations of one back-solve (a column of ``inverse``): the
-        factor's nonzeros twice over, a multiply and an add each.
+        Floating-point operations of one back-solve (a column of ``inverse``,
+        :func:`back_solve_cost`).
 
     Notes
     -----

@@ -26,7 +26,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
-from .constraintrows import ConstraintRows, factor_cost
+from .constraintrows import ConstraintRows, back_solve_cost, factor_cost
 from .errors import SolverError
 from .linsolve import Factorization, factorize, resolve_backend
 from .saddle import (
@@ -372,7 +372,7 @@ class StaticSolver:
                     self._counted_inverse, self._partial_solve, self._frow, self._fact.marked,
                     self._to_factor.shape[0], modes=self.modes if self.free_body else None,
                     j_phi=self._j_phi if self.free_body else None, widen=self._mark_rows,
-                    buy=self._factor_cost(), column=4.0 * self._fact.factor_nnz,
+                    buy=self._factor_cost(), column=back_solve_cost(self._fact),
                 )  # fmt: skip
             s = self._constraints.compliance(rows)
         return s, (e @ self.placing_modes) if self.free_body else None
