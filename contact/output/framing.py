@@ -40,6 +40,7 @@ __all__ = [
     "grasp_axis",
     "held_view",
     "main_view",
+    "view_from",
     "visible",
 ]
 
@@ -73,6 +74,13 @@ class View:
     def camera(self) -> list[tuple[float, float, float]]:
         """Pyvista's camera position ``[position, focal point, view up]``."""
         return [self.position, self.focus, self.up]
+
+
+def view_from(
+    focus: NDArray[np.float64], direction: NDArray[np.float64], span: float, box: NDArray
+) -> View:
+    """A view of ``box`` ``(2, 3)`` at ``focus`` from three ``span`` along unit ``direction``."""
+    return View(tuple(focus + 3 * span * direction), tuple(focus), _up(direction), _flat(box))
 
 
 def _box(points: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -311,7 +319,7 @@ def body_views(
         b = _box(part)
         span = float((b[1] - b[0]).max()) or 1.0
         c = b.mean(axis=0)
-        views.append(View(tuple(c + 3 * span * d), tuple(c), _up(d), _flat(b)))
+        views.append(view_from(c, d, span, b))
     return views
 
 

@@ -22,7 +22,8 @@ from numpy.typing import NDArray
 import fem
 from contact.geometry.plane import tributary_areas
 
-from .framing import View, _flat, _up
+from .framing import View, view_from
+from .summary import pressure_over_area
 
 if TYPE_CHECKING:
     from .picturedata import Picture
@@ -78,12 +79,8 @@ def contact_pressure(
     normal_force : ndarray (N,)
         Nodal normal contact force (N).
     """
-    fn = np.asarray(normal_force, dtype=np.float64)
     area = tributary_areas(np.asarray(points, dtype=np.float64), mesh.boundary.faces)
-    out = np.zeros(len(fn))
-    touch = (fn > 0) & (area > 0)
-    out[touch] = fn[touch] / area[touch]
-    return out
+    return pressure_over_area(normal_force, area)
 
 
 def pressure_views(
@@ -134,7 +131,7 @@ def pressure_views(
         axis = axis / (np.linalg.norm(axis) or 1.0)
         seen |= d @ axis >= np.cos(COVER)
         seen[group] = True  # a group whose mean falls short of one of its own points
-        views.append(View(tuple(centre + 3 * span * axis), tuple(centre), _up(axis), _flat(box)))
+        views.append(view_from(centre, axis, span, box))
     return views
 
 

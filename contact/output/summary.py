@@ -38,6 +38,7 @@ __all__ = [
     "grip_force",
     "max_strain",
     "part_forces",
+    "pressure_over_area",
     "summary_text",
     "update_summary",
     "verdict",
@@ -112,6 +113,15 @@ def grip_force(result: FrameResult, hand: str | None) -> float:
     return float(np.abs(np.asarray(c["force"], dtype=np.float64)[mine]).sum())
 
 
+def pressure_over_area(normal_force: ArrayLike, areas: ArrayLike) -> NDArray[np.float64]:
+    """Each node's normal contact force over its tributary area (Pa), 0 off contact."""
+    fn, a = np.asarray(normal_force, dtype=np.float64), np.asarray(areas, dtype=np.float64)
+    out = np.zeros(len(fn))
+    touch = (fn > 0.0) & (a > 0.0)
+    out[touch] = fn[touch] / a[touch]
+    return out
+
+
 def part_forces(
     fields: Mapping[str, ArrayLike] | None,
     parts: NDArray[np.int64],
@@ -138,7 +148,7 @@ def part_forces(
         Part name -> ``normal`` (sum of the nodal normal force magnitudes, N),
         ``tangential`` (sum of the nodal tangential force magnitudes, N),
         ``contact_area`` (sum of the tributary areas of the nodes with a normal force,
-        m^2), ``peak_pressure`` (largest nodal normal force over tributary area, Pa) and
+        m^2), ``peak_pressure`` (largest :func:`pressure_over_area`, Pa) and
         ``max_cone_use`` (largest ``|t| / (mu n)`` of its contacts, 0 without friction).
     """
     n = len(parts)
@@ -152,8 +162,7 @@ def part_forces(
         if "cone_use" in fields:
             cone = np.asarray(fields["cone_use"], dtype=np.float64)
     touch = (fn > 0.0) & (a > 0.0)
-    pressure = np.zeros(n)
-    pressure[touch] = fn[touch] / a[touch]
+    pressure = pressure_over_area(fn, a)
     out = {}
     for i, name in enumerate(names):
         own = parts == i
