@@ -2,11 +2,11 @@
 
 Every frame of a run is drawn with the same cameras, so that frames compare:
 
-- the *focus box* holds the smallest body (the ball) in every frame and every contact node
+- the *focus box* holds the held body (the ball) in every frame and every contact node
   of every body in every frame (the hand's contact zone), padded by :data:`_PAD`; the
   main view fits this box, so that planes and the far parts of the hand do not decide
   the framing. It keeps a given camera's view direction; by default it looks across the
-  *grasp axis* (from the smallest body to the other bodies' parts in the box: from the
+  *grasp axis* (from the held body to the other bodies' parts in the box: from the
   ball to the palm), from the side of :data:`DEFAULT_VIEW` and a little from the ball's
   side (:data:`_TILT`), so that the ball, the hand around it and the gap between them
   show; looking down :data:`DEFAULT_VIEW` would show the back of the hand over the ball;
@@ -90,8 +90,9 @@ def _box(points: NDArray[np.float64]) -> NDArray[np.float64]:
 def focus_box(
     bodies: Sequence[Sequence[NDArray[np.float64]]],
     contacts: Sequence[NDArray[np.float64]],
+    held: int,
 ) -> NDArray[np.float64]:
-    """The box around the smallest body and every contact node, padded.
+    """The box around the held body and every contact node, padded.
 
     Parameters
     ----------
@@ -99,15 +100,15 @@ def focus_box(
         Per body, its deformed points in every frame.
     contacts : sequence of ndarray (k, 3)
         Contact nodes (deformed) of every body and frame.
+    held : int
+        Which of ``bodies`` is held (:func:`contact.output.picturedata.held_body`).
 
     Returns
     -------
     ndarray (2, 3)
         Lower and upper corner.
     """
-    boxes = [_box(np.concatenate(frames)) for frames in bodies if len(frames)]
-    small = min(boxes, key=lambda b: float(np.linalg.norm(b[1] - b[0])))
-    pts = [small, *(c for c in contacts if len(c))]
+    pts = [_box(np.concatenate(bodies[held])), *(c for c in contacts if len(c))]
     lo = np.min([p.min(axis=0) for p in pts], axis=0)
     hi = np.max([p.max(axis=0) for p in pts], axis=0)
     pad = _PAD * float((hi - lo).max())
@@ -137,7 +138,9 @@ _EQUAL = 0.05
 
 
 def visible(
-    points: NDArray[np.float64], direction: NDArray[np.float64], triangles: NDArray[np.float64],
+    points: NDArray[np.float64],
+    direction: NDArray[np.float64],
+    triangles: NDArray[np.float64],
     depth: float = 0.0,
 ) -> NDArray[np.bool_]:
     """Which ``points (k, 3)`` no triangle ``(t, 3, 3)`` hides, seen from along ``direction``.
@@ -161,8 +164,10 @@ def visible(
     a, b, c, tz, area = a[ok], b[ok], c[ok], tz[ok], area[ok]
 
     def edge(u, v):  # (k, t): twice the signed area of (u, v, p) over the triangle's
-        return ((v[:, 0] - u[:, 0])[None] * (p[:, 1, None] - u[:, 1][None])
-                - (v[:, 1] - u[:, 1])[None] * (p[:, 0, None] - u[:, 0][None])) / area[None]
+        return (
+            (v[:, 0] - u[:, 0])[None] * (p[:, 1, None] - u[:, 1][None])
+            - (v[:, 1] - u[:, 1])[None] * (p[:, 0, None] - u[:, 0][None])
+        ) / area[None]
 
     w0, w1, w2 = edge(b, c), edge(c, a), edge(a, b)
     inside = (w0 >= 0) & (w1 >= 0) & (w2 >= 0)
@@ -204,8 +209,11 @@ def clear_direction(
     near = dirs @ (preferred / np.linalg.norm(preferred))
     good = score >= score.max() - _EQUAL
     best = np.flatnonzero(good)[np.argmax(near[good])]
-    log.debug("main view: %.0f %% of the contacts seen (%.0f %% from the grasp-axis view)",
-              100 * score[best], 100 * score[0])
+    log.debug(
+        "main view: %.0f %% of the contacts seen (%.0f %% from the grasp-axis view)",
+        100 * score[best],
+        100 * score[0],
+    )
     return dirs[best]
 
 
@@ -255,9 +263,9 @@ def main_view(
 
 
 def grasp_axis(
-    bodies: Sequence[Sequence[NDArray[np.float64]]], box: NDArray[np.float64]
+    bodies: Sequence[Sequence[NDArray[np.float64]]], box: NDArray[np.float64], held: int
 ) -> NDArray[np.float64] | None:
-    """Unit vector from the smallest body's centre to the other bodies' parts in the box.
+    """Unit vector from the held body's centre to the other bodies' parts in the box.
 
     Parameters
     ----------
@@ -265,6 +273,8 @@ def grasp_axis(
         Per body, its deformed points in every frame.
     box : ndarray (2, 3)
         The focus box.
+    held : int
+        Which of ``bodies`` is held.
 
     Returns
     -------
@@ -274,8 +284,7 @@ def grasp_axis(
     if len(bodies) < 2:
         return None
     pts = [np.concatenate(frames) for frames in bodies]
-    sizes = [float(np.linalg.norm(np.ptp(p, axis=0))) for p in pts]
-    k = int(np.argmin(sizes))
+    k = held
     others = [p[np.all((p >= box[0]) & (p <= box[1]), axis=1)] for j, p in enumerate(pts) if j != k]
     others = [o for o in others if len(o)]
     if not others:

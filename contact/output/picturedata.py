@@ -7,6 +7,7 @@ imports the other.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -19,7 +20,7 @@ from .status import StatusMarkers
 if TYPE_CHECKING:
     import pyvista
 
-__all__ = ["BodyPicture", "Picture"]
+__all__ = ["BodyPicture", "Picture", "held_body"]
 
 
 @dataclass
@@ -77,7 +78,11 @@ class Picture:
         ``status_NNNN.png``), else None.
     pressure : str or None
         The body whose contact pressure the frame's ``pressure_NNNN.png`` draws (the
-        held, smallest one, where it touches), else None.
+        held one, where it touches), else None.
+    held : str or None
+        The held body (:func:`held_body`), the same in every frame of a run: its view
+        carries the force arrows and the framing centres on it. None: the renderer
+        names it from the frame's points by the same rule.
     """
 
     index: int
@@ -90,3 +95,23 @@ class Picture:
     stop_reason: str = "converged"
     status: StatusMarkers | None = None
     pressure: str | None = None
+    held: str | None = None
+
+
+def held_body(points: Mapping[str, NDArray[np.float64]]) -> str:
+    """The body the grasp holds: the smallest, by its bounding box's diagonal.
+
+    Parameters
+    ----------
+    points : mapping of str to ndarray (N, 3)
+        Each body's nodal positions; the writer passes the reference meshes, so that
+        one body is named for the whole run, whatever the bodies do in it.
+
+    Returns
+    -------
+    str
+        The name; the first of equal ones in ``points``' order.
+    """
+    if not points:
+        raise ValueError("held_body needs at least one body")
+    return min(points, key=lambda n: float(np.linalg.norm(np.ptp(points[n], axis=0))))

@@ -55,7 +55,7 @@ from fem.stress import nodal_average
 from . import rendering
 from .drawing import Bar, draw_body, draw_planes, draw_pushes, write_verdict
 from .framing import View, body_views, focus_box, grasp_axis, held_view, main_view
-from .picturedata import BodyPicture, Picture
+from .picturedata import BodyPicture, Picture, held_body
 from .pressure import PressureScale, contact_pressure, pressure_views, shoot_pressure
 from .staging import write_atomic
 from .status import draw_status
@@ -251,17 +251,18 @@ def _render_all(
     names = list(dict.fromkeys(b.name for p in pictures for b in p.bodies))
     per_body = [[b.points for p in pictures for b in p.bodies if b.name == n] for n in names]
     contacts = [b.contact for p in pictures for b in p.bodies]
-    box = focus_box(per_body, contacts)
-    sizes = [float(np.linalg.norm(np.ptp(np.concatenate(p), axis=0))) for p in per_body]
-    held = names[int(np.argmin(sizes))]
+    first = pictures[0]
+    held = first.held or held_body({b.name: b.points for b in first.bodies})
+    k = names.index(held)
+    box = focus_box(per_body, contacts, k)
     sight = (
         [b.contact for p in pictures for b in p.bodies if b.name == held],
         [_triangles([b.surface for b in p.bodies if b.name != held], box) for p in pictures],
     )
-    main = main_view(box, camera, grasp_axis(per_body, box), sight)
+    main = main_view(box, camera, grasp_axis(per_body, box, k), sight)
     views = dict(zip(names, body_views(per_body, box), strict=True)) if len(names) > 1 else {}
     if views:  # the held body's forces seen side on, as the main view sees them
-        views[held] = held_view(main, per_body[int(np.argmin(sizes))], 0.45)
+        views[held] = held_view(main, per_body[k], 0.45)
     bars = _bars(pictures)
     grip = max((p.forces.grip for p in pictures), default=0.0)
     size = float((box[1] - box[0]).max())

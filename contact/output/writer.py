@@ -58,6 +58,7 @@ import fem
 from ..errors import OutputError
 from ..solver.results import FrameResult
 from .forces import FrameForces, frame_forces
+from .picturedata import held_body
 from .pictures import (
     Picture,
     body_picture,
@@ -331,8 +332,8 @@ class ResultsWriter:
             max_vm[name] = float(max(v.max() for v in vm.values()))
             if self.pictures:
                 drawn.append(body_picture(name, body.mesh, body.materials, u, vm, fields[name]))
-        # the held (smallest) body's contact pressure gets its own picture where it touches
-        held = min(bodies, key=lambda n: float(np.linalg.norm(np.ptp(deformed[n], axis=0))))
+        # the held body's contact pressure gets its own picture where it touches
+        held = held_body({n: b.mesh.points for n, b in bodies.items()})
         pressed = held if self.pictures and fields[held]["normal_force"].max() > 0 else None
         status = None
         if self.pictures and result.friction is not None:
@@ -366,6 +367,7 @@ class ResultsWriter:
                     stop_reason=str(result.stop_reason),
                     status=status,
                     pressure=pressed,
+                    held=held,
                 )
             )
         entry["timings"]["write"] = _clock() - t0
@@ -470,6 +472,7 @@ class ResultsWriter:
             write_pvd(self.staging / f"{body}.pvd", series)
             out[body] = f"{body}.pvd"
         return out
+
 
 def _unit(v: ArrayLike) -> NDArray[np.float64]:
     a = np.asarray(v, dtype=np.float64).reshape(3)

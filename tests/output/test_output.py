@@ -411,6 +411,7 @@ def test_real_frames_with_pictures_gif_and_convergence(tmp_path):
             )
             assert entry["verdict"]["realistic"]
             assert entry["bone_forces"]["base"]["force"][2] > 0
+        assert {p.held for p in w._pictures} == {"ball"}  # one held body for the run
         out = w.finish({"name": "ball on pad"})
     summary = json.loads((out / "summary.json").read_text())
     assert summary["pictures"] == "written"

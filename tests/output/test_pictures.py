@@ -17,6 +17,7 @@ from contact.output import (
     rendering_available,
     units_name,
 )
+from contact.output.picturedata import held_body
 from contact.output.pictures import Picture, _bars
 from fem.stress import cell_stress, von_mises
 from tests.output.test_output import SOFT, STEEL, ball_on_pad, frame_result, scene_bodies
@@ -157,3 +158,13 @@ def test_pictures_not_blank_differ_between_frames_and_mark_failures(tmp_path):
 
     assert red(a) == 0 and red(b) > 50
     assert (out / "forces.png").is_file()
+
+
+def test_the_held_body_is_the_smallest_and_one_for_any_order():
+    ball = fem.ball_mesh(0.01, divisions=4, layers=2).points
+    hand = fem.box_mesh((0.04, 0.04, 0.005), (2, 2, 1)).points  # thinner, yet larger
+    assert held_body({"hand": hand, "ball": ball}) == "ball"
+    assert held_body({"ball": ball, "hand": hand}) == "ball"
+    assert held_body({"a": ball, "b": ball.copy()}) == "a"  # equal: the first
+    with pytest.raises(ValueError, match="at least one body"):
+        held_body({})
