@@ -7,8 +7,8 @@ facet and barycentric weights, or a point of a plane, which moves with the plane
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass, field
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -72,3 +72,33 @@ class Anchors:
             then = self.reference.get(b.name)
             out[b.name] = u if then is None else then + u - b.mesh.points
         return out
+
+    def starting(
+        self,
+        displacement: Mapping[str, NDArray[np.float64]],
+        reference: Mapping[str, NDArray[np.float64]],
+    ) -> Anchors:
+        """These anchors, with the bodies they do not place yet placed where they start.
+
+        ``displacement`` ``(N, 3)`` from ``reference`` ``(N, 3)`` per body: where a
+        contact first met in the frame is measured from (a finite body's placement at the
+        frame's start, in every Newton step alike). Bodies placed here keep their own.
+        """
+        new = [n for n in displacement if n not in self.displacement]
+        u = {n: np.asarray(displacement[n], float).reshape(-1, 3) for n in new}
+        x = {n: np.asarray(reference[n], float).reshape(-1, 3) for n in new}
+        return replace(
+            self, displacement={**self.displacement, **u}, reference={**self.reference, **x}
+        )
+
+    def keeping(self, met: Anchors) -> Anchors:
+        """The anchors of ``met`` (every contact a frame measured its slip from), placed as these.
+
+        A Newton step's frame anchors a contact it meets first where it meets it; the next
+        step starts from the same anchors and the same starting placements, so that every
+        step solves the frame's friction, not a new increment from where the last ended.
+        """
+        return replace(
+            self, pair=met.pair, node=met.node, facet=met.facet, weights=met.weights,
+            point=met.point,
+        )  # fmt: skip

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import logging
 import time
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -239,7 +240,7 @@ def solve_contact_space(frame: FrameState, anchors: Anchors | None = None) -> Fr
         ends = friction.anchors_after(solved, fres.status, tangent, u_end)
     else:
         ends = end_anchors(frame, solved.select(keep), u_end)
-    return frame.result(
+    res = frame.result(
         converged=converged,
         stop=stop,
         history=history,
@@ -250,6 +251,7 @@ def solve_contact_space(frame: FrameState, anchors: Anchors | None = None) -> Fr
         anchors=ends,
         slip=None if slip is None else slip.record(),
     )
+    return replace(res, slip_from=friction.measured_from()) if friction.active else res
 
 
 def carried(rows: ContactRows, lam: NDArray[np.float64], grown: ContactRows) -> NDArray[np.float64]:

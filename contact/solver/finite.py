@@ -220,7 +220,9 @@ def solve_finite_frame(
         Finite bodies' displacements to start from (the last frame's), zero otherwise.
     max_steps : int
     anchors : Anchors, optional
-        The previous frame's stick anchors (its ``result.anchors``), for friction.
+        The previous frame's stick anchors (its ``result.anchors``), for friction. Every
+        Newton step measures slip from them and from where the frame's steps first met
+        each new contact, the finite bodies placed at the frame's start.
     callback : callable, optional
         Called with each linear frame's iteration records (progress).
 
@@ -236,6 +238,8 @@ def solve_finite_frame(
         for b in finite
     }
     size = {b.name: float(np.ptp(b.mesh.points, axis=0).max()) for b in finite}
+    # every step measures slip from the frame's start and the anchors its steps met
+    anchors = (anchors or Anchors()).starting(u, {b.name: b.mesh.points for b in finite})
     res, residual, stop = None, np.inf, "iteration limit"
     springs: dict[str, sp.csr_matrix] = {}
     history: list[tuple[NDArray, NDArray]] = []
@@ -281,6 +285,8 @@ def solve_finite_frame(
         if res is None:
             break
         springs = {b.name: _springs(b, res, lin[b.name], rigid) for b in finite}
+        if res.slip_from is not None:
+            anchors = anchors.keeping(res.slip_from)
         if not res.converged:
             stop = res.stop_reason
             log.debug("Newton step %d: the linear frame stopped: %s", step, stop)

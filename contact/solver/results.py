@@ -198,6 +198,12 @@ class FrameResult:
         Where each closed contact is anchored at the end of the frame, for Coulomb
         friction in the next (:class:`contact.solver.anchors.Anchors`; a stuck contact
         keeps its anchor, any other is anchored where it ended); None from the seed loop.
+    slip_from : object or None
+        The anchors this frame measured each frictional contact's slip from: those
+        carried in and those met in the frame, each where it was first met, with the
+        frame's starting placements (:class:`contact.solver.anchors.Anchors`); None
+        without friction. Newton's next linearisation of the same frame starts from them
+        (:mod:`contact.solver.finite`), so that its friction law stays the frame's.
     contact_fields : dict of str to dict of str to ndarray
         Body name -> nodal fields of the contacts: ``normal_force`` ``(N,)`` (N),
         ``tangential_force`` ``(N, 3)`` (N), ``contact_status`` ``(N,)`` (0 none or open,
@@ -230,6 +236,7 @@ class FrameResult:
     friction: FrictionReport | None = None
     held: bool | None = None
     anchors: object | None = None
+    slip_from: object | None = None
     contact_fields: dict[str, dict[str, NDArray]] = field(default_factory=dict)
     plane_positions: dict[str, NDArray[np.float64]] = field(default_factory=dict)
     slip: dict | None = None

@@ -98,6 +98,7 @@ class Friction:
 
     def __init__(self, frame, anchors: Anchors | None = None) -> None:
         self.frame = frame
+        self.given = Anchors() if anchors is None else anchors
         self.previous = {} if anchors is None else anchors.displaced(frame.bodies)
         self.motion = {} if anchors is None else anchors.motion
         self.base = np.array([float(p.friction) for p in frame.pairs])
@@ -150,6 +151,23 @@ class Friction:
                 self.anchor[key] = (
                     rows.m_nodes[i, :3].copy(), rows.m_coef[i, :3].copy(), np.full(3, np.nan)
                 )
+
+    def measured_from(self) -> Anchors:
+        """Every anchor the frame measures slip from (carried in or met), placed as given."""
+        keys = list(self.anchor)
+        pairs = self.frame.pairs
+        facet, weights, point = (
+            np.array([self.anchor[k][j] for k in keys]).reshape(len(keys), 3) for j in range(3)
+        )
+        return self.given.keeping(
+            Anchors(
+                pair=np.array([pairs[i].name for i, _ in keys], dtype=object),
+                node=np.array([n for _, n in keys], dtype=np.int64),
+                facet=facet.astype(np.int64),
+                weights=weights,
+                point=point,
+            )
+        )
 
     def _anchor_points(self, keys: list[_Key]) -> NDArray[np.float64]:
         """Anchors' positions at the frame's reference (the master's reference points)."""
