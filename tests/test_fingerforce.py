@@ -30,7 +30,7 @@ def test_one_joint_reaches_its_force_within_the_tolerance() -> None:
 
     def solve(angles):
         calls.append(angles["j"])
-        return "result", {"j": f(angles["j"])}
+        return "result", {"j": f(angles["j"])}, ""
 
     target = Target("j", 3.0, 0.01, 90.0)
     result, angles, drives = drive(solve, {"j": 20.0}, {"j": 20.2}, [target])
@@ -50,7 +50,7 @@ def test_two_joints_at_once_each_with_its_own_force() -> None:
     fa, fb = _hertz(10.0, 1.0), _hertz(30.0, 5.0)
 
     def solve(angles):
-        return None, {"a": fa(angles["a"]), "b": fb(angles["b"])}
+        return None, {"a": fa(angles["a"]), "b": fb(angles["b"])}, ""
 
     targets = [Target("a", 1.0, 0.01, 90.0), Target("b", 4.0, 0.02, 90.0)]
     _, angles, drives = drive(solve, {"a": 10.0, "b": 30.0}, {"a": 10.5, "b": 30.1}, targets)
@@ -63,7 +63,7 @@ def test_a_joint_at_its_limit_short_of_the_force_stops_and_says_so() -> None:
     f = _hertz(20.0, 0.01)
 
     def solve(angles):
-        return None, {"j": f(angles["j"])}
+        return None, {"j": f(angles["j"])}, ""
 
     _, angles, drives = drive(solve, {"j": 20.0}, {"j": 20.5}, [Target("j", 50.0, 0.01, 30.0)])
     d = drives["j"]
@@ -76,7 +76,7 @@ def test_noise_does_not_loop_past_the_step_budget() -> None:
 
     def solve(angles):
         a = angles["j"]
-        return None, {"j": f(a) * (1 + 0.05 * math.sin(1e4 * a))}
+        return None, {"j": f(a) * (1 + 0.05 * math.sin(1e4 * a))}, ""
 
     _, _, drives = drive(solve, {"j": 20.0}, {"j": 20.2}, [Target("j", 3.0, 0.001, 90.0)])
     assert len(drives["j"].trials) <= MAX_STEPS + 2
@@ -86,7 +86,7 @@ def test_a_finger_pressing_already_steps_back() -> None:
     f = _hertz(20.0)
 
     def solve(angles):
-        return None, {"j": f(angles["j"])}
+        return None, {"j": f(angles["j"])}, ""
 
     # the "touching" pose already presses (the ball moved since): forces above the target
     _, angles, drives = drive(solve, {"j": 24.0}, {"j": 24.5}, [Target("j", 3.0, 0.01, 90.0)])
@@ -172,7 +172,7 @@ def test_bad_force_flexion_keys(tmp_path: Path) -> None:
 def test_a_force_that_jumps_over_the_target_is_said_so() -> None:
     def solve(angles):  # a step of the force at 21 deg, from 0.9 N to 1.2 N
         a = angles["j"]
-        return None, {"j": 0.0 if a < 20 else (0.9 if a < 21.0 else 1.2)}
+        return None, {"j": 0.0 if a < 20 else (0.9 if a < 21.0 else 1.2)}, ""
 
     target = Target("j", 1.0, 0.02, 90.0)
     _, angles, drives = drive(solve, {"j": 20.0}, {"j": 20.5}, [target], max_steps=12)
@@ -216,7 +216,7 @@ def test_two_fingers_squeezing_one_free_ball_share_one_force() -> None:
     # a pinch: the ball between them carries one force, set by how far both have closed
     def solve(angles):
         f = 2.0 * max(angles["index"] + angles["thumb"] - 40.0, 0.0) ** 1.5
-        return None, {"index": f, "thumb": f}
+        return None, {"index": f, "thumb": f}, ""
 
     targets = [Target("index", 1.0, 0.02, 90.0), Target("thumb", 1.0, 0.02, 90.0)]
     _, angles, drives = drive(
@@ -226,3 +226,43 @@ def test_two_fingers_squeezing_one_free_ball_share_one_force() -> None:
     assert 2.0 * (angles["index"] + angles["thumb"] - 40.0) ** 1.5 == pytest.approx(1.0, rel=0.02)
     solves = len(drives["index"].trials) - 1
     assert solves <= 6
+
+
+def test_a_trial_that_did_not_settle_never_brackets_the_force() -> None:
+    # frames between 21.0 and 21.3 deg stop short with a force far above the truth (a
+    # solver's give-up): the search steps back past them and reaches the force below
+    f = _hertz(20.0)
+    calls = []
+
+    def solve(angles):
+        a = angles["j"]
+        calls.append(a)
+        if 21.0 <= a < 21.3:
+            return None, {"j": 10.0}, "Newton stalled"
+        return None, {"j": f(a)}, ""
+
+    target = Target("j", 1.5, 0.01, 90.0)
+    _, angles, drives = drive(solve, {"j": 20.0}, {"j": 21.1}, [target], max_steps=12)
+    d = drives["j"]
+    assert d.converged and f(angles["j"]) == pytest.approx(1.5, rel=0.01)
+    assert 21.1 in d.unsettled and d.unsettled[21.1] == "Newton stalled"
+    lo, hi = d.final
+    assert all(not (21.0 <= a < 21.3) for a in (lo, hi) if a is not None)
+    assert d.record()["unsettled"] == [[a, "Newton stalled"] for a in d.unsettled]
+
+
+def test_a_force_only_unsettled_frames_reach_is_the_solvers_limit() -> None:
+    # every frame past 20.9 deg stops short: the force asked lies there, unreached, and
+    # the search says the solver stopped it, never that the finger got its force
+    f = _hertz(20.0)
+
+    def solve(angles):
+        a = angles["j"]
+        return None, {"j": f(a)}, ("friction did not settle" if a > 20.9 else "")
+
+    target = Target("j", 3.0, 0.01, 90.0)
+    _, _, drives = drive(solve, {"j": 20.0}, {"j": 20.2}, [target], max_steps=20)
+    d = drives["j"]
+    assert not d.converged
+    assert "did not settle" in d.reason and "solver's limit" in d.reason
+    assert max(a for a, _ in d.settled()) <= 20.9

@@ -15,9 +15,16 @@ then the secant through its last two trials while the force is below the target 
 force is convex in the press, so the secant overshoots and brackets the root), limited
 to :data:`GROWTH` times the last step, and the Illinois variant of regula falsi once the
 root is bracketed, bisecting a bracket two steps did not halve. Turns repeat until every
-force is within its ``force_tolerance``, in at most :data:`MAX_STEPS` solves a joint.
+force is within its ``force_tolerance``, in at most :data:`MAX_STEPS` solves a joint that
+settle (and as many more that do not).
 A joint stops short where it reaches its limit, or where its force jumps across the
 target within :data:`ANGLE_RESOLUTION` (a node entering the contact).
+
+A trial whose frame did not settle (Newton or friction stopped short, a linear ball
+turned past its bound) guides the next step but never brackets the root nor ends the
+search: inside a bracket the next trial halves the side of it the estimate falls in,
+and a joint whose trials fail within :data:`ANGLE_RESOLUTION` of a bracket's end stops,
+saying so (the solver's limit, not the finger's).
 """
 
 from __future__ import annotations
@@ -45,7 +52,8 @@ __all__ = [
 
 #: The first trial presses each force-driven finger this far (m) past first contact.
 FIRST_PRESS = 5e-4
-#: Contact solves a frame may take for each of its force-driven joints.
+#: Contact solves that settle a frame may take for each of its force-driven joints (and as
+#: many that do not: they say nothing of the force).
 MAX_STEPS = 8
 #: The largest factor by which an extrapolated step may exceed the joint's last one.
 GROWTH = 4.0
@@ -94,9 +102,11 @@ class Drive:
     trials : list of (float, float)
         ``(angle, force)`` of every trial, in order (the first contact's, force 0, first).
     converged : bool
-        The last trial's force is within the tolerance.
+        The last trial settled with its force within the tolerance.
     reason : str
         Why it stopped.
+    unsettled : dict of float to str
+        The angles whose frames did not settle, and why: their forces guide, never bracket.
     """
 
     joint: str
@@ -104,6 +114,7 @@ class Drive:
     trials: list[tuple[float, float]] = field(default_factory=list)
     converged: bool = False
     reason: str = ""
+    unsettled: dict[float, str] = field(default_factory=dict)
     _side: int = 0  # Illinois: which end of the bracket was kept last, -1 low, +1 high
     _widths: list[float] = field(default_factory=list)  # the bracket's, step by step
     _start: int = 1  # the trials of the current search, the other joints held (from here)
@@ -125,10 +136,19 @@ class Drive:
         The first contact's force, 0, is a guess of the geometry (the ball may have moved
         since it was measured), never an end of the bracket.
         """
-        now = self.trials[self._start :]  # the others held: a function of this angle
+        now = self.settled()
         below = [a for a, f in now if f < self.force]
         above = [a for a, f in now if f >= self.force]
         return (max(below) if below else None, min(above) if above else None)
+
+    def settled(self) -> list[tuple[float, float]]:
+        """The current search's trials whose frames settled (the others held)."""
+        return [(a, f) for a, f in self.trials[self._start :] if a not in self.unsettled]
+
+    @property
+    def failed(self) -> bool:
+        """The last trial did not settle."""
+        return self.trials[-1][0] in self.unsettled
 
     def restart(self, angle: float, force: float) -> None:
         """Start a new search from ``(angle, force)``: the other joints moved since."""
@@ -150,13 +170,17 @@ class Drive:
             "trials": [[a, f] for a, f in self.trials],
             "converged": self.converged,
             "reason": self.reason,
+            "unsettled": [[a, why] for a, why in self.unsettled.items()],
         }
 
 
 def _next(d: Drive, target: Target) -> float:
     """The next angle of one joint from its trials (see the module docstring)."""
     lo, hi = d.bracket()
-    pts = {a: f for a, f in d.trials[d._start :]}
+    pts = dict(d.settled())
+    if d.failed and pts:
+        # the last trial did not settle, and what settled is unchanged: go halfway back
+        return 0.5 * (d.angle + _back(d))
     if lo is not None and hi is not None:
         flo, fhi = pts[lo] - target.force, pts[hi] - target.force
         # Illinois: halve the value kept at the end that did not move last time
@@ -176,14 +200,15 @@ def _next(d: Drive, target: Target) -> float:
         if not lo + inner <= a <= hi - inner:
             a = 0.5 * (lo + hi)
         return a
-    a1, f1 = d.trials[-1]
-    if len(d.trials) - d._start == 1:
+    guide = d.settled() if len(d.settled()) >= 2 else d.trials[d._start :]
+    a1, f1 = guide[-1]
+    if len(guide) == 1:
         # one trial: its press past first contact scaled as a Hertz contact's, F ~ d^(3/2)
         a0 = d.trials[0][0]
         step = max(a1 - a0, 1e-6)
         press = step * (target.force / f1) ** (2.0 / 3.0) if f1 > 0 else GROWTH * step
         return min(a0 + min(press, GROWTH * step), target.limit)
-    a0, f0 = d.trials[-2]
+    a0, f0 = guide[-2]
     step = a1 - a0
     if hi is None:  # every force below the target: extrapolate upwards
         slope = (f1 - f0) / step if step else 0.0
@@ -210,8 +235,9 @@ def drive(
     Parameters
     ----------
     solve : callable
-        ``solve(angles) -> (result, forces)``: the frame solved at ``angles`` (every joint)
-        and each force-driven joint's finger force (N).
+        ``solve(angles) -> (result, forces, why)``: the frame solved at ``angles`` (every
+        joint), each force-driven joint's finger force (N), and why the frame did not
+        settle ("" where it did).
     touching : mapping of str to float
         The pose with each force-driven joint at first contact (force 0, no solve).
     pressed : mapping of str to float
@@ -233,37 +259,52 @@ def drive(
         raise ValueError(f"max_steps = {max_steps} must be at least 1")
     drives = {t.joint: Drive(t.joint, t.force, [(float(touching[t.joint]), 0.0)]) for t in targets}
     last = {k: float(v) for k, v in pressed.items()}
-    result, forces = solve(dict(last))
+    result, forces, why = solve(dict(last))
     solves, budget = 1, max_steps * len(targets)
+    failures = 1 if why else 0
     for t in targets:
         drives[t.joint].trials.append((last[t.joint], float(forces[t.joint])))
+        if why:
+            drives[t.joint].unsettled[last[t.joint]] = why
     done: set[str] = set()  # joints stopped short (a limit, a jump)
-    while solves < budget:
-        off = [t for t in targets if t.joint not in done and not t.reached(forces[t.joint])]
+    while solves - failures < budget and failures < budget:
+        off = [
+            t for t in targets
+            if t.joint not in done and (why or not t.reached(forces[t.joint]))
+        ]  # fmt: skip
         if not off:
             break
         for t in off:
             d = drives[t.joint]
             d.restart(last[t.joint], float(forces[t.joint]))
-            while solves < budget and not t.reached(d.reached):
-                why = _stuck(d, t)
-                if why:
-                    d.reason = why
+            while solves - failures < budget and failures < budget and (
+                d.failed or not t.reached(d.reached)
+            ):
+                stuck = _stuck(d, t)
+                if stuck:
+                    d.reason = stuck
                     done.add(t.joint)
                     break
                 angles = {**last, t.joint: _next(d, t)}
-                result, forces = solve(dict(angles))
+                result, forces, why = solve(dict(angles))
                 solves += 1
                 last = angles
                 d.trials.append((last[t.joint], float(forces[t.joint])))
+                if why:
+                    d.unsettled[last[t.joint]] = why
+                    failures += 1
     for t in targets:
         d = drives[t.joint]
         d.final = d.bracket()  # its last search's, before the frame's own force is added
         if (last[t.joint], float(forces[t.joint])) != d.trials[-1]:
             d.trials.append((last[t.joint], float(forces[t.joint])))
-        d.converged = t.reached(d.reached)
+            if why:
+                d.unsettled[last[t.joint]] = why
+        d.converged = t.reached(d.reached) and not why
         if d.converged:
             d.reason = f"force reached in {solves} solve(s)"
+        elif not d.reason and why:
+            d.reason = f"{t.joint}: the last trial's frame did not settle ({why})"
         elif not d.reason:
             lo, hi = d.final
             d.reason = (
@@ -274,9 +315,29 @@ def drive(
     return result, last, drives
 
 
-def _stuck(d: Drive, t: Target) -> str:
-    """Why a joint's search cannot go on (a limit reached short, a force that jumps), or ""."""
+def _back(d: Drive) -> float:
+    """Where a search goes back to from a trial that did not settle: the bracket's low end.
+
+    Else its high end: the settled trials below, else above, the force.
+    """
     lo, hi = d.bracket()
+    return lo if lo is not None else hi  # type: ignore[return-value]
+
+
+def _stuck(d: Drive, t: Target) -> str:
+    """Why a joint's search cannot go on, or "".
+
+    A limit reached short, a force that jumps, or a frame that does not settle within
+    :data:`ANGLE_RESOLUTION` of the last that did, toward the force.
+    """
+    lo, hi = d.bracket()
+    if d.failed and d.settled() and abs(d.angle - _back(d)) < ANGLE_RESOLUTION:
+        a = _back(d)
+        return (
+            f"{t.joint}: the frames next to {a:.6g} deg ({dict(d.settled())[a]:.4g} N of "
+            f"{t.force:.4g} N) did not settle (the solver's limit, not the finger's: "
+            f"{d.unsettled[d.angle]})"
+        )
     if lo is not None and hi is not None and hi - lo < ANGLE_RESOLUTION:
         f = dict(d.trials[d._start :])
         return (

@@ -358,7 +358,10 @@ class GraspRun:
         def trial(pose: dict[str, float]) -> tuple[tuple, dict[str, float]]:
             self.restore(kept)
             out = solve_rolled(self, t, pose, callback)
-            return out, finger_forces(out[0].contact_fields.get("hand"), self._parts(), targets)
+            res = out[0]
+            forces = finger_forces(res.contact_fields.get("hand"), self._parts(), targets)
+            # a ball not held is an outcome; a frame stopped short says little of the force
+            return out, forces, "" if res.converged or res.held is False else res.stop_reason
 
         pressed = guess(self._fingers, t, angles, {**angles, **self._pressed}, targets)
         touching = dict(angles)
