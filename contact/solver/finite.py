@@ -230,7 +230,8 @@ def solve_finite_frame(
     ------
     ContactError
         Where the first linearisation's tangent cannot be factored (a body that is not
-        stable at its starting placement).
+        stable at its starting placement). A later step's that cannot stops the frame
+        where the step before left it, not converged.
     """
     finite = [b for b in bodies if isinstance(b, FiniteBody)]
     u = {
@@ -241,6 +242,7 @@ def solve_finite_frame(
     # every step measures slip from the frame's start and the anchors its steps met
     anchors = (anchors or Anchors()).starting(u, {b.name: b.mesh.points for b in finite})
     res, residual, stop = None, np.inf, "iteration limit"
+    last: FrameResult | None = None
     springs: dict[str, sp.csr_matrix] = {}
     history: list[tuple[NDArray, NDArray]] = []
     lin: dict[str, ElasticBody] = {}
@@ -283,7 +285,9 @@ def solve_finite_frame(
             material_until, step = step + 1, step - 1
             continue
         if res is None:
+            res = last  # a later step's tangent failed: the frame stops at the last step's
             break
+        last = res
         springs = {b.name: _springs(b, res, lin[b.name], rigid) for b in finite}
         if res.slip_from is not None:
             anchors = anchors.keeping(res.slip_from)

@@ -104,3 +104,23 @@ def _by_contact(a: Anchors) -> dict:
         (str(p), int(n)): (tuple(f), tuple(np.round(w, 12)))
         for p, n, f, w in zip(a.pair, a.node, a.facet, a.weights, strict=True)
     }
+
+
+def test_a_tangent_that_cannot_be_factored_later_stops_the_frame_not_the_run(monkeypatch):
+    # from the third step on every linear frame fails to factor: the frame ends where the
+    # second left it, not converged and saying why; only a first tangent that cannot be
+    # factored is an error (the body unstable where it starts)
+    solve = finite.solve_frame
+    calls = []
+
+    def failing(*args, **kwargs):
+        calls.append(1)
+        if len(calls) >= 3:
+            raise fem.SolverError("PARDISO could not factor the matrix")
+        return solve(*args, **kwargs)
+
+    monkeypatch.setattr(finite, "solve_frame", failing)
+    out = solve_finite_frame(*_pad_and_ball(0.25, 0.5))
+    assert not out.converged and "could not be factored" in out.stop_reason
+    assert out.steps >= 2 and np.abs(out.displacement["pad"]).max() > 0
+    assert out.frame_result().contact_force["pad"][:, 2].sum() < 0
