@@ -148,8 +148,9 @@ def run(quick: bool = False, out: str | Path | None = None) -> list[dict]:
         write_csv(folder / "finite_example.csv", example, [c.key for c in EXAMPLE_COLUMNS])
         table = markdown_table(example, EXAMPLE_COLUMNS)
         sections.append(("The README example", table + "\n\n" + example_section(example)))
-        print(f"[finite] README example t = 1: finite / linear "
-              f"x{example[1]['frame_s'] / example[0]['frame_s']:.1f}", flush=True)
+        for row in example[1:]:
+            print(f"[finite] README example t = 1: {row['model']} / linear "
+                  f"x{row['frame_s'] / example[0]['frame_s']:.1f}", flush=True)
     write_markdown(
         folder / "finite.md",
         "Finite strain: a free ball squeezed to d/R 0.2 between plates",

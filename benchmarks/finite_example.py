@@ -42,15 +42,15 @@ COLUMNS = (
 )
 
 
-def _neo_hookean(text: str) -> str:
-    """The scene with its ball and flesh neo-Hookean (their inline material tables)."""
-    for key in ("material", "flesh"):
+def _neo_hookean(text: str, keys: tuple[str, ...] = ("material", "flesh")) -> str:
+    """The scene with its ball (``material``) and flesh neo-Hookean (their inline tables)."""
+    for key in keys:
         text = re.sub(
             rf"^({key} = \{{[^}}\n]*?)\s*\}}", r'\1, model = "neo-hookean" }', text,
             count=1, flags=re.M,
         )  # fmt: skip
-    if text.count('model = "neo-hookean"') != 2:
-        raise RuntimeError(f"{EXAMPLE}: its ball material and flesh tables were not found")
+    if text.count('model = "neo-hookean"') != len(keys):
+        raise RuntimeError(f"{EXAMPLE}: its {' and '.join(keys)} tables were not found")
     return text
 
 
@@ -79,25 +79,29 @@ def _closing_frame(text: str, folder: Path, name: str) -> dict:
 
 
 def example_rows() -> list[dict]:
-    """The closing frame, linear then neo-Hookean."""
+    """The closing frame: linear, the flesh neo-Hookean, the flesh and the ball."""
     text = EXAMPLE.read_text()
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         return [
             _closing_frame(text, folder, "linear"),
-            _closing_frame(_neo_hookean(text), folder, "neo-hookean"),
+            _closing_frame(_neo_hookean(text, ("flesh",)), folder, "neo-hookean flesh"),
+            _closing_frame(_neo_hookean(text), folder, "neo-hookean flesh and ball"),
         ]
 
 
 def example_section(rows: list[dict]) -> str:
-    """The goal line under the table."""
-    ratio = rows[1]["frame_s"] / rows[0]["frame_s"]
-    verdict = "met" if ratio <= GOAL else "MISSED"
+    """The goal lines under the table."""
+    lines = []
+    for row in rows[1:]:
+        ratio = row["frame_s"] / rows[0]["frame_s"]
+        verdict = "met" if ratio <= GOAL else "MISSED"
+        lines.append(f"{row['model']} / linear {ratio:.1f}x: {verdict}")
     return (
-        f"The README example's closing frame (t = 1, the hand closing on the ball), after "
-        f"the frames before it: finite / linear {ratio:.1f}x against the goal of "
-        f"{GOAL:g}x: {verdict}. The linear frame factors each body once; each Newton step "
-        "assembles and factors the tangent anew and solves a whole linear frame, and the "
-        "free hollow ball converges at a linear rate (its full tangent's turn is not the "
-        "free-body solve's null space)."
+        "The README example's closing frame (t = 1, the hand closing on the ball), after "
+        f"the frames before it, against the goal of {GOAL:g}x: {'; '.join(lines)}. The "
+        "linear frame factors each body once; each Newton step assembles and factors the "
+        "tangent anew and solves a whole linear frame. The free neo-Hookean ball's steps "
+        "swing it (its free-body solve takes the rigid modes as its tangent's null space, "
+        "which a squeezed body's is not), and its frame is cut back."
     )

@@ -30,3 +30,6 @@ def test_the_readme_example_is_made_neo_hookean_in_its_ball_and_flesh_only():
     assert all(line.rstrip().endswith("}") or "#" in line for line in lines)
     with pytest.raises(RuntimeError, match="material and flesh"):
         _neo_hookean("[ball]\nradius = 0.03\n")
+    flesh = _neo_hookean(EXAMPLE.read_text(), ("flesh",))
+    lines = [line for line in flesh.splitlines() if 'model = "neo-hookean"' in line]
+    assert [line.split("=")[0].strip() for line in lines] == ["flesh"]
