@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import NDArray
 
 from .forces import FrameForces
 
@@ -19,12 +20,14 @@ if TYPE_CHECKING:
 
     from .picturedata import BodyPicture, Picture
 
-__all__ = ["Bar", "draw_body", "draw_planes", "draw_pushes", "write_verdict"]
+__all__ = ["Bar", "draw_body", "draw_planes", "draw_pushes", "label_anchors", "write_verdict"]
 
 #: Colour of stresses above a clipped bar's top.
 ABOVE = "#ff00ff"
 _GREEN, _RED = "#1a7f37", "#cf222e"
 _PLANE = "#8899aa"
+#: Font size of the force labels.
+_LABEL_FONT = 11
 #: Side of a plane's square, as a fraction of the focus box's side.
 _SQUARE = 0.35
 
@@ -95,7 +98,11 @@ def draw_body(
 
 
 def draw_pushes(plotter: pyvista.Plotter, forces: FrameForces, arrow: float) -> None:
-    """One arrow per finger and plane, its tip where it acts, labelled with its force."""
+    """One arrow per finger and plane, its tip where it acts, labelled with its force.
+
+    Draw it after the view's camera is placed: a label that would run past its view's
+    edge is moved back inside (:func:`label_anchors`).
+    """
     import pyvista as pv
 
     if not arrow:
@@ -123,18 +130,48 @@ def draw_pushes(plotter: pyvista.Plotter, forces: FrameForces, arrow: float) -> 
         )
         tails.append(tail)
         labels.append(f"{push.label} {push.normal:.3g} N")
-    if tails:
-        plotter.add_point_labels(
-            np.array(tails),
-            labels,
-            font_size=11,
-            text_color="black",
-            fill_shape=True,
-            shape_color="white",
-            shape_opacity=0.6,
-            show_points=False,
-            always_visible=True,
-        )
+    if not tails:
+        return
+    plotter.add_point_labels(
+        label_anchors(plotter, np.array(tails), labels, _LABEL_FONT),
+        labels,
+        font_size=_LABEL_FONT,
+        text_color="black",
+        fill_shape=True,
+        shape_color="white",
+        shape_opacity=0.6,
+        show_points=False,
+        always_visible=True,
+    )
+
+
+def label_anchors(
+    plotter: pyvista.Plotter, points: NDArray[np.float64], labels: list[str], font_size: int
+) -> NDArray[np.float64]:
+    """Where to anchor each label (its lower left corner) so that it stays in its view.
+
+    A label at ``points`` that would run past the current view's edge (as its camera
+    stands; the text about ``0.65 font_size`` pixels a character) is moved back inside,
+    in the screen's plane at its point's depth.
+    """
+    renderer = plotter.renderer
+    x0, y0, x1, y1 = renderer.GetViewport()
+    width, height = plotter.window_size
+    left, right, bottom, top = x0 * width, x1 * width, y0 * height, y1 * height
+    out = np.array(points, dtype=np.float64).reshape(-1, 3)
+    for k, (p, text) in enumerate(zip(out.copy(), labels, strict=True)):
+        renderer.SetWorldPoint(*(float(v) for v in p), 1.0)
+        renderer.WorldToDisplay()
+        dx, dy, dz = renderer.GetDisplayPoint()
+        wide, high = 0.65 * font_size * len(text) + 8, 1.6 * font_size + 4
+        x = min(max(dx, left + 2), max(right - 2 - wide, left + 2))
+        y = min(max(dy, bottom + 2), max(top - 2 - high, bottom + 2))
+        if (x, y) != (dx, dy):
+            renderer.SetDisplayPoint(x, y, dz)
+            renderer.DisplayToWorld()
+            wx, wy, wz, ww = renderer.GetWorldPoint()
+            out[k] = np.array([wx, wy, wz]) / (ww if ww else 1.0)
+    return out
 
 
 def draw_planes(plotter: pyvista.Plotter, pic: Picture, size: float) -> None:

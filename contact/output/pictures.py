@@ -276,8 +276,8 @@ def _render_all(
             image = _shoot_status(window_size, pic, main, dot)
             write_atomic(folder / f"status_{pic.index:04d}.png", rendering.png_bytes(image))
         if pic.pressure is not None:
-            views, bar = pressed[pic.pressure]
-            image = shoot_pressure(window_size, pic, pic.pressure, views, bar)
+            sides, scale = pressed[pic.pressure]  # its own cameras: the frame's views stay
+            image = shoot_pressure(window_size, pic, pic.pressure, sides, scale)
             write_atomic(folder / f"pressure_{pic.index:04d}.png", rendering.png_bytes(image))
     log.info("%d pictures rendered", len(pictures))
 
@@ -355,17 +355,16 @@ def _shoot(
         plotter.subplot(0, 0)
         for k, body in enumerate(pic.bodies):
             draw_body(plotter, body, bars[body.name], bar_at=k, slots=len(pic.bodies))
-        if not views:
-            draw_pushes(plotter, pic.forces, arrow)
         draw_planes(plotter, pic, size)
         wide = window_size[0] * (2 / 3 if views else 1)
         write_verdict(plotter, pic, (int(wide), window_size[1]))
         _place(plotter, main, 1.1)
+        if not views:  # the labels run toward the middle of the view as placed
+            draw_pushes(plotter, pic.forces, arrow)
         for row, body in enumerate(b for b in pic.bodies if b.name in views):
             plotter.subplot(row, 2)
             draw_body(plotter, body, bars[body.name], bar_at=None)
             if body.name == held:
-                draw_pushes(plotter, pic.forces, arrow)
                 title = f"{body.name} alone: the forces on it"
             else:
                 title = f"{body.name}, seen from the {held}"
@@ -373,6 +372,8 @@ def _shoot(
             label.SetBackgroundColor(1.0, 1.0, 1.0)  # readable over a dark body
             label.SetBackgroundOpacity(0.75)
             _place(plotter, views[body.name], 1.2 if body.name == held else 1.0)
+            if body.name == held:
+                draw_pushes(plotter, pic.forces, arrow)
         return plotter.screenshot(return_img=True)
     finally:
         plotter.close()

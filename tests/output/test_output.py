@@ -425,6 +425,9 @@ def test_real_frames_with_pictures_gif_and_convergence(tmp_path):
 
     img = np.asarray(Image.open(pngs[1]).convert("RGB"))
     assert img.shape == (240, 320, 3) and np.ptp(img) > 100  # not blank
+    for png in pngs:  # every frame's side views drawn, after a pressure picture too
+        side = np.asarray(Image.open(png).convert("RGB"))[:, 230:].astype(float)
+        assert side.std() > 30, png.name
     with Image.open(out / "grasp.gif") as gif:
         assert gif.n_frames == 2
     assert (out / "convergence.png").stat().st_size > 1000

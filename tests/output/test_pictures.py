@@ -168,3 +168,31 @@ def test_the_held_body_is_the_smallest_and_one_for_any_order():
     assert held_body({"a": ball, "b": ball.copy()}) == "a"  # equal: the first
     with pytest.raises(ValueError, match="at least one body"):
         held_body({})
+
+
+def test_a_force_label_stays_in_its_view():
+    ok, reason = rendering_available()
+    if not ok:
+        pytest.skip(f"no off-screen rendering on this machine: {reason}")
+    import pyvista as pv
+
+    from contact.output.drawing import label_anchors
+
+    plotter = pv.Plotter(off_screen=True, window_size=(900, 600), shape=(1, 3))
+    try:
+        plotter.subplot(0, 2)  # a narrow panel at the right, as the held body's
+        plotter.camera_position = [(0, 0, 5), (0, 0, 0), (0, 1, 0)]
+        plotter.reset_camera(bounds=(-1, 1, -1, 1, -1, 1))
+        points = np.array([[0.9, 0.9, 0], [-0.3, -0.3, 0]])
+        labels = ["plane table 0.452 N", "x"]
+        at = label_anchors(plotter, points, labels, 11)
+        np.testing.assert_allclose(at[1], points[1], atol=1e-12)  # inside: left where it is
+        ren = plotter.renderer
+        ren.SetWorldPoint(*at[0], 1.0)
+        ren.WorldToDisplay()
+        x, y, _ = ren.GetDisplayPoint()
+        assert 600 < x and x + 0.65 * 11 * len(labels[0]) + 8 <= 900  # back in its panel
+        assert y + 1.6 * 11 + 4 <= 600
+        assert at[0][2] == pytest.approx(0.0, abs=1e-9)  # at its point's depth
+    finally:
+        plotter.close()
