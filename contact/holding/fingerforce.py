@@ -224,7 +224,7 @@ def _next(d: Drive, target: Target) -> float:
 
 
 def drive(
-    solve: Callable[[dict[str, float]], tuple[Any, Mapping[str, float]]],
+    solve: Callable[[dict[str, float]], tuple[Any, Mapping[str, float], str]],
     touching: Mapping[str, float],
     pressed: Mapping[str, float],
     targets: Sequence[Target],

@@ -355,7 +355,7 @@ class GraspRun:
         # every trial from the same history, its flesh relaxed from the same pose
         kept = self.history()
 
-        def trial(pose: dict[str, float]) -> tuple[tuple, dict[str, float]]:
+        def trial(pose: dict[str, float]) -> tuple[tuple, dict[str, float], str]:
             self.restore(kept)
             out = solve_rolled(self, t, pose, callback)
             res = out[0]
