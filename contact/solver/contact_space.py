@@ -51,7 +51,11 @@ log = logging.getLogger(__name__)
 LCP_TOLERANCE = 0.5
 
 
-def solve_contact_space(frame: FrameState, anchors: Anchors | None = None) -> FrameResult:
+def solve_contact_space(
+    frame: FrameState,
+    anchors: Anchors | None = None,
+    search_from: dict[str, NDArray[np.float64]] | None = None,
+) -> FrameResult:
     """Resolve the frame's contacts in contact space (see the module docstring).
 
     Parameters
@@ -60,6 +64,10 @@ def solve_contact_space(frame: FrameState, anchors: Anchors | None = None) -> Fr
         The frame, its zones marked and its bodies factored.
     anchors : Anchors, optional
         The frictional contacts' stick anchors from the previous frame.
+    search_from : dict of str to ndarray, optional
+        Without friction, displacements ``(N, 3)`` of some bodies at which the first
+        contact set is measured instead of at rest (a Newton step's linear bodies where the
+        last step left them, so that a contact it closed is a candidate again).
 
     Returns
     -------
@@ -73,6 +81,9 @@ def solve_contact_space(frame: FrameState, anchors: Anchors | None = None) -> Fr
     friction = Friction(frame, anchors)
     space = ContactSpace(frame.bodies, rotations=friction.active, planes=frame.driven.planes)
     u = friction.start()
+    if search_from and not friction.active:
+        u = {n: search_from.get(n, v) if search_from.get(n, v).shape == v.shape else v
+             for n, v in u.items()}  # fmt: skip
     # step 2 (first time): every node inside or near its master, as candidates
     rows, _, _ = contacts.new_rows(ContactRows(), u, touching=True, near=contactset.NEAR)
     if friction.active:

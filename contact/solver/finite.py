@@ -243,6 +243,7 @@ def solve_finite_frame(
     anchors = (anchors or Anchors()).starting(u, {b.name: b.mesh.points for b in finite})
     res, residual, stop = None, np.inf, "iteration limit"
     last: FrameResult | None = None
+    near: dict[str, NDArray] = {}
     springs: dict[str, sp.csr_matrix] = {}
     history: list[tuple[NDArray, NDArray]] = []
     lin: dict[str, ElasticBody] = {}
@@ -271,7 +272,9 @@ def solve_finite_frame(
             for p in pairs
         ]  # fmt: skip
         try:
-            res = solve_frame(now, paired, planes, settings, anchors=anchors, callback=callback)
+            res = solve_frame(
+                now, paired, planes, settings, anchors=anchors, callback=callback, search_from=near
+            )
         except fem.SolverError as exc:
             res, stop = None, f"a finite body's tangent could not be factored at this strain: {exc}"
         finally:
@@ -288,6 +291,9 @@ def solve_finite_frame(
             res = last  # a later step's tangent failed: the frame stops at the last step's
             break
         last = res
+        # frictionless: the next step's first search looks at the linear bodies where this
+        # one left them (a contact it closed stays a candidate, not one the tolerance drops)
+        near = {b.name: res.displacement[b.name] for b in bodies if b.name not in u}
         springs = {b.name: _springs(b, res, lin[b.name], rigid) for b in finite}
         if res.slip_from is not None:
             anchors = anchors.keeping(res.slip_from)

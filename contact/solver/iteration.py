@@ -17,6 +17,9 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 
+import numpy as np
+from numpy.typing import NDArray
+
 import fem
 
 from ..errors import ContactError
@@ -43,6 +46,7 @@ def solve_frame(
     dirichlet: str | None = None,
     callback: Callable[[IterationRecord], None] | None = None,
     anchors: Anchors | None = None,
+    search_from: dict[str, NDArray[np.float64]] | None = None,
 ) -> FrameResult:
     """Resolve the contacts of one frame.
 
@@ -66,6 +70,10 @@ def solve_frame(
         Where each frictional contact stuck at the end of the previous frame (its
         ``FrameResult.anchors``): Coulomb's law acts on the slip since then. None: the
         first frame, every contact anchored where it is first found.
+    search_from : dict of str to ndarray, optional
+        Without friction, displacements ``(N, 3)`` of some bodies at which the first
+        contact set is measured instead of at rest (see
+        :func:`~contact.solver.contact_space.solve_contact_space`).
 
     Returns
     -------
@@ -96,4 +104,4 @@ def solve_frame(
                     '"contact-space"'
                 )
             return solve_seed(frame, dirichlet or frame.bodies[0].name)
-        return solve_contact_space(frame, anchors)
+        return solve_contact_space(frame, anchors, search_from)

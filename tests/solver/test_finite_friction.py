@@ -15,6 +15,7 @@ from contact.solver import finite
 from contact.solver.anchors import Anchors
 from contact.solver.body import ElasticBody
 from contact.solver.finite import FiniteBody, solve_finite_frame
+from contact.solver.iteration import solve_frame
 from contact.solver.pairs import ContactPair
 
 H, R = 0.01, 0.008
@@ -124,3 +125,23 @@ def test_a_tangent_that_cannot_be_factored_later_stops_the_frame_not_the_run(mon
     assert not out.converged and "could not be factored" in out.stop_reason
     assert out.steps >= 2 and np.abs(out.displacement["pad"]).max() > 0
     assert out.frame_result().contact_force["pad"][:, 2].sum() < 0
+
+
+def test_a_frictionless_search_from_the_last_place_finds_the_same_frame():
+    # a free ball pressed by a plate onto a pad: searched from where a first solve left the
+    # ball, the frame takes its contacts at once and ends where the search from rest ends
+    from tests.output.test_output import ball_on_pad
+
+    bodies, pairs, planes = ball_on_pad(0.05)
+    rest = solve_frame(bodies, pairs, planes)
+    bodies, pairs, planes = ball_on_pad(0.05)
+    placed = solve_frame(bodies, pairs, planes, search_from={"ball": rest.displacement["ball"]})
+    assert rest.converged and placed.converged
+    assert placed.iterations <= rest.iterations
+    for name in ("ball", "pad"):
+        a, b = rest.displacement[name], placed.displacement[name]
+        assert np.abs(a - b).max() <= 1e-6 * np.abs(a).max()
+    wrong = {"ball": np.zeros((3, 3))}  # another mesh's: ignored, the search starts at rest
+    bodies, pairs, planes = ball_on_pad(0.05)
+    again = solve_frame(bodies, pairs, planes, search_from=wrong)
+    np.testing.assert_array_equal(again.displacement["ball"], rest.displacement["ball"])
