@@ -21,10 +21,13 @@ which change nothing of a step along those rows. Where the full tangent cannot b
 factored or its linear frame fails, the step takes the material tangent
 (:func:`fem.finite_strain` with ``tangent="material"``), whose null space is exactly the
 rigid modes, and so does a free body whose steps shrink only at a linear rate
-(:func:`_linear_rate`). A free body's step turns it by a finite rotation, at most
-:data:`MAX_TURN` (:func:`_turned`). Newton stops as stalled where its residual no longer
-halves (:data:`STALL`). Friction's slip is measured from the previous frame's anchors in
-every step, and force-driven planes are placed by every step's solve.
+(:func:`contact.solver.newtonrate.linear_rate`). A free body's step turns it by a finite
+rotation, at most :data:`MAX_TURN` (:func:`_turned`). Newton stops as stalled where its
+residual no longer halves (:data:`STALL`). Friction's slip is measured from the previous
+frame's anchors and from where the frame's steps first met each contact, in every step
+(:meth:`contact.solver.anchors.Anchors.keeping`); without friction, once a contact flips
+(:class:`contact.solver.newtonrate.Flips`) each step searches from where the last left
+the linear bodies. Force-driven planes are placed by every step's solve.
 """
 
 from __future__ import annotations
@@ -47,6 +50,7 @@ from ..geometry.plane import Plane
 from .anchors import Anchors
 from .body import ElasticBody
 from .iteration import solve_frame
+from .newtonrate import ANDERSON_FROM, Flips, anderson, linear_rate, slow
 from .pairs import ContactPair
 from .results import FrameResult, IterationRecord
 from .settings import ContactSettings
@@ -63,22 +67,12 @@ STEP_TOL = 1e-9
 RESIDUAL = 1e-8
 #: Halvings of a step that would turn a cell inside out.
 HALVINGS = 20
-#: From this Newton step on, where the steps shrink slowly (:data:`FAST`), a free body's
-#: placement is Anderson-mixed from its last :data:`ANDERSON` steps: the material
-#: tangent converges linearly, and the mixing takes up the rate it leaves.
-ANDERSON_FROM = 4
-ANDERSON = 3
-#: Steps that shrink by more than this ratio are Newton's own: they are left whole.
-FAST = 0.05
 #: The largest turn (rad) of a free body in one Newton step: a longer step is shortened.
 MAX_TURN = 0.1
 #: Newton stops as stalled where the residual's least value over its last ``STALL``
 #: steps is not half the least before them: a cycling contact set, a linear rate too
 #: slow to finish (a frame is then cut into smaller steps of time by the run).
 STALL = 6
-#: A free body whose full-tangent steps shrink by less than this ratio from its third
-#: step on takes the material tangent for the rest of the frame (:func:`_linear_rate`).
-SLOW_FULL = 0.3
 
 
 @dataclass(frozen=True)
@@ -244,6 +238,7 @@ def solve_finite_frame(
     res, residual, stop = None, np.inf, "iteration limit"
     last: FrameResult | None = None
     near: dict[str, NDArray] = {}
+    flips = Flips()
     springs: dict[str, sp.csr_matrix] = {}
     history: list[tuple[NDArray, NDArray]] = []
     lin: dict[str, ElasticBody] = {}
@@ -291,9 +286,10 @@ def solve_finite_frame(
             res = last  # a later step's tangent failed: the frame stops at the last step's
             break
         last = res
-        # frictionless: the next step's first search looks at the linear bodies where this
-        # one left them (a contact it closed stays a candidate, not one the tolerance drops)
-        near = {b.name: res.displacement[b.name] for b in bodies if b.name not in u}
+        # frictionless, once a contact flips: the next step's first search looks at the
+        # linear bodies where this one left them (what it closed stays a candidate)
+        if flips.add(res.contacts):
+            near = {b.name: res.displacement[b.name] for b in bodies if b.name not in u}
         springs = {b.name: _springs(b, res, lin[b.name], rigid) for b in finite}
         if res.slip_from is not None:
             anchors = anchors.keeping(res.slip_from)
@@ -306,8 +302,8 @@ def solve_finite_frame(
         # mixing takes up the material tangent's linear rate; the full tangent's own steps
         # are left whole (mixed, a squeezed ball's cycle between contact sets grows)
         on_material = [b.name for b in finite if b.free and not full[b.name]]
-        mixed = _anderson(history, u, steps_now, on_material)
-        if step < ANDERSON_FROM or not _slow(history):
+        mixed = anderson(history, u, steps_now, on_material)
+        if step < ANDERSON_FROM or not slow(history):
             mixed = {}
         residual = 0.0
         for b in finite:
@@ -326,7 +322,7 @@ def solve_finite_frame(
             forces = res.contact_force[b.name]
             residual = max(residual, _residual(b, u[b.name], f_int, forces, held))
             last_move[b.name].append(moves[b.name])
-            if b.free and full[b.name] and b.follower is None and _linear_rate(last_move[b.name]):
+            if b.free and full[b.name] and b.follower is None and linear_rate(last_move[b.name]):
                 slow_full.add(b.name)
         clock["checks"] += time.perf_counter() - t2
         log.debug(
@@ -378,54 +374,6 @@ def _springs(
     rows = np.repeat(dofs, 3, axis=1).ravel()
     cols = np.tile(dofs, 3).ravel()
     return sp.csr_matrix((blocks.ravel(), (rows, cols)), shape=(n, n))
-
-
-def _linear_rate(moves: list[float]) -> bool:
-    """A free body's full-tangent steps shrink at a linear rate: its turn moves its forces.
-
-    The free-body solve takes the full tangent's rigid modes as its null space, which
-    they are only where no force acts; under a squeeze the steps then shrink by a
-    constant ratio, and the material tangent (its null space exactly the rigid modes,
-    with Anderson mixing) does better.
-    """
-    return len(moves) >= 3 and moves[-1] > SLOW_FULL * moves[-2]
-
-
-def _slow(history) -> bool:
-    """The last two steps shrink by less than :data:`FAST`: linear, not Newton's, rate."""
-    if len(history) < 2:
-        return False
-    a, b = (float(np.linalg.norm(h[1])) for h in history[-2:])
-    return b > FAST * a
-
-
-def _anderson(history, u, steps, names, depth: int = ANDERSON):
-    """Anderson-mixed placements of the free bodies ``names`` from their last steps.
-
-    ``history`` keeps the last ``depth + 1`` placements and steps (appended here); the
-    mix is the type-II update of the fixed point ``u -> u + du``.
-    """
-    if not names:
-        history.clear()  # a mix spans consecutive steps of the same bodies only
-        return {}
-    x = np.concatenate([u[n] for n in names])
-    f = np.concatenate([steps[n] for n in names])
-    if history and history[-1][0].size != x.size:
-        history.clear()
-    history.append((x.copy(), f.copy()))
-    del history[:-(depth + 1)]
-    new = x + f
-    if len(history) > 1:
-        dx = np.column_stack([history[i + 1][0] - history[i][0] for i in range(len(history) - 1)])
-        df = np.column_stack([history[i + 1][1] - history[i][1] for i in range(len(history) - 1)])
-        gamma = np.linalg.lstsq(df, f, rcond=None)[0]
-        new = new - (dx + df) @ gamma
-    out, k = {}, 0
-    for n in names:
-        m = u[n].size
-        out[n] = new[k : k + m]
-        k += m
-    return out
 
 
 def _turned(body: FiniteBody, u: NDArray, du: NDArray) -> tuple[NDArray, bool]:

@@ -145,3 +145,18 @@ def test_a_frictionless_search_from_the_last_place_finds_the_same_frame():
     bodies, pairs, planes = ball_on_pad(0.05)
     again = solve_frame(bodies, pairs, planes, search_from=wrong)
     np.testing.assert_array_equal(again.displacement["ball"], rest.displacement["ball"])
+
+
+def test_a_contact_that_flips_is_seen_and_one_that_settles_is_not():
+    from contact.solver.newtonrate import Flips
+
+    def step(*nodes):
+        return {"pair": np.array(["ball/bowl"] * len(nodes), dtype=object), "node": np.array(nodes)}
+
+    settling = Flips()  # one contact lost for good, one gained for good: no flip
+    assert not any(settling.add(s) for s in (step(1, 2), step(1, 3), step(1, 3), step(1, 3)))
+    taken = Flips()  # node 7 closed by one step, open in the steps on either side
+    assert [taken.add(s) for s in (step(1), step(1, 7), step(1))] == [False, False, True]
+    assert taken.add(step(1))  # seen once, it holds for the rest of the frame
+    dropped = Flips()  # node 7 open by one step, closed on either side
+    assert [dropped.add(s) for s in (step(1, 7), step(1), step(1, 7))] == [False, False, True]
