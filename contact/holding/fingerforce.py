@@ -22,9 +22,9 @@ target within :data:`ANGLE_RESOLUTION` (a node entering the contact).
 
 A trial whose frame did not settle (Newton or friction stopped short, a linear ball
 turned past its bound) guides the next step but never brackets the root nor ends the
-search: inside a bracket the next trial halves the side of it the estimate falls in,
-and a joint whose trials fail within :data:`ANGLE_RESOLUTION` of a bracket's end stops,
-saying so (the solver's limit, not the finger's).
+search: the next trial goes halfway back to the settled trials below the force (above
+it, where none is below), and a joint whose trials fail within :data:`ANGLE_RESOLUTION`
+of them stops, saying so (the solver's limit, not the finger's).
 """
 
 from __future__ import annotations
