@@ -167,20 +167,25 @@ def test_a_round_off_change_leaves_the_finite_verdict(tmp_path: Path) -> None:
     assert max(abs(s[3] - seen[0][3]) for s in seen) <= 1e-8 * abs(seen[0][3])
 
 
+def _with_neo_hookean_flesh(tmp_path: Path, example: str, frames: list[str]) -> list[dict]:
+    """The shipped ``example`` with its flesh neo-Hookean, run at ``frames``: their records."""
+    text = (ROOT / "examples" / f"{example}.toml").read_text()
+    flesh = "flesh = { E = 5.0e4, nu = 0.45, density = 1000.0 }"
+    assert flesh in text
+    path = tmp_path / f"{example}.toml"
+    path.write_text(text.replace(flesh, flesh[:-2] + ', model = "neo-hookean" }'))
+    out = tmp_path / "out"
+    args = [str(path), "--out", str(out), "--frames", *frames, "--no-pictures", "--quiet"]
+    assert main(args) == 0
+    return json.loads((out / "summary.json").read_text())["frames"]
+
+
 def test_the_readme_hand_closes_its_neo_hookean_flesh_on_the_ball(tmp_path: Path) -> None:
     # every finger and the thumb close 1 mm into the hollow ball (automatic flexion): with
     # neo-Hookean flesh each carries part of the grip, as with linear flesh, and Newton
     # settles the frame in one go (anchors re-met in every step had it creep, stall, cut
     # the frame and let the ball roll off three fingers)
-    text = (ROOT / "examples" / "grasp.toml").read_text()
-    flesh = "flesh = { E = 5.0e4, nu = 0.45, density = 1000.0 }"
-    assert flesh in text
-    path = tmp_path / "grasp.toml"
-    path.write_text(text.replace(flesh, flesh[:-2] + ', model = "neo-hookean" }'))
-    out = tmp_path / "out"
-    args = [str(path), "--out", str(out), "--frames", "0", "1", "2", "--no-pictures", "--quiet"]
-    assert main(args) == 0
-    closed = json.loads((out / "summary.json").read_text())["frames"][2]
+    closed = _with_neo_hookean_flesh(tmp_path, "grasp", ["0", "1", "2"])[2]
     assert closed["converged"] and closed["held"] and closed["verdict"]["realistic"]
     assert closed["newton"]["steps"] <= 20
     fingers = closed["fingers"]
@@ -189,16 +194,9 @@ def test_the_readme_hand_closes_its_neo_hookean_flesh_on_the_ball(tmp_path: Path
 
 @pytest.mark.slow
 def test_the_bowl_closes_its_neo_hookean_hand_on_the_ball(tmp_path: Path) -> None:
-    # frictionless: Newton's next step searches where the last left the free ball, so a
-    # contact with the bowl it closed stays a candidate (from rest the tolerance took it
-    # one step and dropped it the next, and Newton stalled at 1e-4)
-    text = (ROOT / "examples" / "bowl.toml").read_text()
-    flesh = "flesh = { E = 5.0e4, nu = 0.45, density = 1000.0 }"
-    assert flesh in text
-    path = tmp_path / "bowl.toml"
-    path.write_text(text.replace(flesh, flesh[:-2] + ', model = "neo-hookean" }'))
-    out = tmp_path / "out"
-    assert main([str(path), "--out", str(out), "--frames", "2", "--no-pictures", "--quiet"]) == 0
-    closed = json.loads((out / "summary.json").read_text())["frames"][0]
+    # frictionless: once a contact flips, Newton's next step searches where the last left
+    # the free ball, so a contact with the bowl it closed stays a candidate (from rest the
+    # tolerance took it one step and dropped it the next, and Newton stalled at 1e-4)
+    closed = _with_neo_hookean_flesh(tmp_path, "bowl", ["2"])[0]
     assert closed["converged"] and closed["held"] and closed["verdict"]["realistic"]
     assert closed["newton"]["steps"] <= 20

@@ -284,12 +284,12 @@ def grasp_axis(
     if len(bodies) < 2:
         return None
     pts = [np.concatenate(frames) for frames in bodies]
-    k = held
-    others = [p[np.all((p >= box[0]) & (p <= box[1]), axis=1)] for j, p in enumerate(pts) if j != k]
+    lo, hi = box
+    others = [p[np.all((p >= lo) & (p <= hi), axis=1)] for j, p in enumerate(pts) if j != held]
     others = [o for o in others if len(o)]
     if not others:
         return None
-    d = np.concatenate(others).mean(axis=0) - pts[k].mean(axis=0)
+    d = np.concatenate(others).mean(axis=0) - pts[held].mean(axis=0)
     n = float(np.linalg.norm(d))
     return d / n if n > 0 else None
 

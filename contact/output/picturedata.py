@@ -31,8 +31,8 @@ class BodyPicture:
     ----------
     name : str
     surface : pyvista.PolyData
-        The deformed outer surface, point data ``von_mises`` (Pa, nodal average) and
-        ``contact_pressure`` (Pa).
+        The deformed outer surface, point data ``von_mises`` (Pa, nodal average) and,
+        for the held body, ``contact_pressure`` (Pa).
     top : float
         The body's largest cell-average von Mises stress in the frame (Pa).
     noise : float

@@ -130,6 +130,7 @@ def body_picture(
     displacement: NDArray[np.float64],
     von_mises: dict[str, NDArray[np.float64]],
     fields: Mapping[str, NDArray],
+    pressure: bool = False,
 ) -> BodyPicture:
     """What the pictures need of a body in a frame.
 
@@ -145,6 +146,9 @@ def body_picture(
         Cell-average von Mises stress per cell type (Pa).
     fields : mapping of str to ndarray
         Its contact point data (``normal_force`` marks the contact nodes).
+    pressure : bool
+        Give its surface the nodal contact pressure (the held body's, which its pressure
+        picture draws); others go without the tributary areas it takes.
 
     Returns
     -------
@@ -155,7 +159,9 @@ def body_picture(
     fn = np.asarray(fields["normal_force"])
     return BodyPicture(
         name,
-        deformed_surface(mesh, displacement, von_mises, contact_pressure(mesh, x, fn)),
+        deformed_surface(
+            mesh, displacement, von_mises, contact_pressure(mesh, x, fn) if pressure else None
+        ),
         float(max(v.max() for v in von_mises.values())),
         _NOISE * max(float(m.E) for m in mats),
         x[fn > 0],
@@ -359,7 +365,7 @@ def _shoot(
         wide = window_size[0] * (2 / 3 if views else 1)
         write_verdict(plotter, pic, (int(wide), window_size[1]))
         _place(plotter, main, 1.1)
-        if not views:  # the labels run toward the middle of the view as placed
+        if not views:  # after the camera: the labels are kept inside the view as placed
             draw_pushes(plotter, pic.forces, arrow)
         for row, body in enumerate(b for b in pic.bodies if b.name in views):
             plotter.subplot(row, 2)

@@ -177,6 +177,7 @@ def shoot_pressure(
         off_screen=True, window_size=size, shape=(1, len(views)),
         border=True, border_color="#cccccc",
     )  # fmt: skip
+    cmap = _colours()
     try:
         for k, view in enumerate(views):
             plotter.subplot(0, k)
@@ -184,7 +185,7 @@ def shoot_pressure(
             surface = body.surface.copy(deep=False)
             surface[bar.title] = np.asarray(body.surface["contact_pressure"]) * bar.scale
             plotter.add_mesh(
-                surface, scalars=bar.title, cmap=_colours(), smooth_shading=True,
+                surface, scalars=bar.title, cmap=cmap, smooth_shading=True,
                 clim=(0.0, bar.top * bar.scale), show_scalar_bar=False,
             )  # fmt: skip
             title = _seen_from(pic, view)

@@ -304,6 +304,8 @@ class ResultsWriter:
         vtu: dict[str, str] = {}
         max_vm: dict[str, float] = {}
         drawn = []
+        # the held body: its contact pressure gets its own picture where it touches
+        held = held_body({n: b.mesh.points for n, b in bodies.items()})
         for name, body in bodies.items():
             vtu[name] = f"{name}_{index:04d}.vtu"
             u = np.asarray(result.displacement[name], dtype=np.float64)
@@ -331,9 +333,11 @@ class ResultsWriter:
                 ) from None
             max_vm[name] = float(max(v.max() for v in vm.values()))
             if self.pictures:
-                drawn.append(body_picture(name, body.mesh, body.materials, u, vm, fields[name]))
-        # the held body's contact pressure gets its own picture where it touches
-        held = held_body({n: b.mesh.points for n, b in bodies.items()})
+                drawn.append(
+                    body_picture(
+                        name, body.mesh, body.materials, u, vm, fields[name], name == held
+                    )
+                )
         pressed = held if self.pictures and fields[held]["normal_force"].max() > 0 else None
         status = None
         if self.pictures and result.friction is not None:
