@@ -177,7 +177,8 @@ class Drive:
 def _next(d: Drive, target: Target) -> float:
     """The next angle of one joint from its trials (see the module docstring)."""
     lo, hi = d.bracket()
-    pts = dict(d.settled())
+    settled = d.settled()
+    pts = dict(settled)
     if d.failed and pts:
         # the last trial did not settle, and what settled is unchanged: go halfway back
         return 0.5 * (d.angle + _back(d))
@@ -200,7 +201,7 @@ def _next(d: Drive, target: Target) -> float:
         if not lo + inner <= a <= hi - inner:
             a = 0.5 * (lo + hi)
         return a
-    guide = d.settled() if len(d.settled()) >= 2 else d.trials[d._start :]
+    guide = settled if len(settled) >= 2 else d.trials[d._start :]
     a1, f1 = guide[-1]
     if len(guide) == 1:
         # one trial: its press past first contact scaled as a Hertz contact's, F ~ d^(3/2)

@@ -81,8 +81,8 @@ def solve_contact_space(
     friction = Friction(frame, anchors)
     space = ContactSpace(frame.bodies, rotations=friction.active, planes=frame.driven.planes)
     u = friction.start()
-    if search_from and not friction.active:
-        u = {n: search_from.get(n, v) if search_from.get(n, v).shape == v.shape else v
+    if search_from and not friction.active:  # where given for a body of this mesh
+        u = {n: search_from[n] if n in search_from and search_from[n].shape == v.shape else v
              for n, v in u.items()}  # fmt: skip
     # step 2 (first time): every node inside or near its master, as candidates
     rows, _, _ = contacts.new_rows(ContactRows(), u, touching=True, near=contactset.NEAR)
