@@ -44,6 +44,7 @@ from .saddle import rigid_part, turned_placement
 from .statics import StaticSolution, StaticSolver, check_balance, rigid_body_modes
 from .stress import cell_stress, gauss_strain, nodal_average, von_mises
 from .threads import dense_threads, sparse_threads
+from .turning import TurningInverse
 
 __version__ = "0.1.0"
 
@@ -67,6 +68,7 @@ __all__ = [
     "SolverError",
     "StaticSolution",
     "StaticSolver",
+    "TurningInverse",
     "__version__",
     "assemble_stiffness",
     "available_backends",

@@ -191,8 +191,8 @@ class StaticSolver:
     def factorize(self) -> StaticSolver:
         """Factor now (with the DOFs marked so far) if not yet done; return self.
 
-        A free body with marked DOFs solves ``J Phi`` (:meth:`_j_phi`, which its partial
-        solves need), and any body the loads it was told of (:meth:`anticipate`), with
+        A free body with marked DOFs solves ``J Phi`` (:meth:`modes_response`, which its
+        partial solves need), and any body the loads it was told of (:meth:`anticipate`), with
         the factorisation's test solve: the factor is read once for all
         (:func:`fem.linsolve.factorize`'s ``rhs``).
         """
@@ -328,7 +328,7 @@ class StaticSolver:
         x = np.zeros_like(r)
         x[self._inner] = z
         if self._marks.size:
-            x[self._inner] -= self._j_phi()[self._inner] @ (phi.T @ r)
+            x[self._inner] -= self.modes_response()[self._inner] @ (phi.T @ r)
         return x - phi @ (phi.T @ x)
 
     def anticipate(self, r: ArrayLike) -> None:
@@ -371,8 +371,9 @@ class StaticSolver:
                 self._constraints = ConstraintRows(
                     self._counted_inverse, self._partial_solve, self._frow, self._fact.marked,
                     self._to_factor.shape[0], modes=self.modes if self.free_body else None,
-                    j_phi=self._j_phi if self.free_body else None, widen=self._mark_rows,
-                    buy=self._factor_cost(), column=back_solve_cost(self._fact),
+                    j_phi=self.modes_response if self.free_body else None,
+                    widen=self._mark_rows, buy=self._factor_cost(),
+                    column=back_solve_cost(self._fact),
                 )  # fmt: skip
             s = self._constraints.compliance(rows)
         return s, (e @ self.placing_modes) if self.free_body else None
@@ -392,8 +393,8 @@ class StaticSolver:
         self.n_partial_solves += z.shape[1]
         return z
 
-    def _j_phi(self) -> NDArray[np.float64]:
-        """``J Phi``: the inner inverse of a free body applied to its rigid modes (kept)."""
+    def modes_response(self) -> NDArray[np.float64]:
+        """``J Phi``: a free body's inverse with its support held, of its rigid modes (kept)."""
         if self._jphi is None:
             x = np.zeros_like(self.modes)
             x[self._inner] = self._fact.solve(self.modes[self._inner])

@@ -171,6 +171,19 @@ class ElasticBody:
         return self.solver.free_body
 
     @cached_property
+    def turning(self) -> fem.TurningInverse | None:
+        """A free body's exact inverse where it ``turns_freely`` (None otherwise).
+
+        A finite-strain tangent does not vanish on the body's turns: the contact solves
+        that place it by all six modes border its compliance with the modes' ``Psi`` and
+        stiffness ``H`` (:class:`fem.TurningInverse`) instead of taking its rigid modes
+        as free.
+        """
+        if not (self.turns_freely and self.free):
+            return None
+        return fem.TurningInverse(self.solver.factorize())
+
+    @cached_property
     def surface_nodes(self) -> NDArray[np.int64]:
         """Nodes on the body's boundary: the ones that can touch."""
         return self.mesh.boundary.nodes

@@ -173,11 +173,12 @@ def unheld(frame, space: ContactSpace, friction: Friction, rows: ContactRows) ->
     for spring in SPRINGS:
         res = solve_friction(
             sys_.w, g, sys_.rhs, c, mu=mu, tangent=tangent, load_scale=sys_.load_scale,
-            spring=spring, start=levels[-1][1].lam if levels else None,
+            spring=spring, start=levels[-1][1].lam if levels else None, h=sys_.h,
         )
         if not res.solved:
             continue  # a softer one may settle
-        slip = _worst_slip(frame, space, rows, res, g.T @ res.lam - c)  # the springs' load
+        carried = g.T @ res.lam - c - (sys_.h @ res.a if sys_.h is not None else 0.0)
+        slip = _worst_slip(frame, space, rows, res, carried)  # the springs' load
         if slip is None:
             return None  # the contacts carry all but a spring's share: held
         levels.append((spring, res, slip))

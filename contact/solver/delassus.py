@@ -11,9 +11,12 @@ contact forces ``lambda``::
 ``W = sum_b E_b C_b E_b^T`` is the Delassus operator (each body's compliance ``C_b``
 seen from the contact rows: ``K11^-1``, or the pseudo-inverse of a free body), ``u0_b =
 C_b f_b`` each body's answer to its own loads, and ``G = [E_b Phi_b]`` the rigid modes
-``Phi_b`` of the free bodies with their amplitudes ``a``. The compliance of a row is
-computed once by back-solves with the body's one factorisation and kept
-(:meth:`fem.StaticSolver.compliance`): a contact set that changes by ``k`` rows costs
+``Phi_b`` of the free bodies with their amplitudes ``a``. A finite-strain body's
+linearisation placed by all six modes has a stiffness that its turns change: its rows
+keep the linear body's compliance, bordered by eighteen columns and their stiffness ``H_b``
+(:meth:`fem.TurningInverse.extended`), and the balance reads ``G^T lambda - H a = c``.
+The compliance of a row is computed once by back-solves with the body's one factorisation
+and kept (:meth:`fem.StaticSolver.compliance`): a contact set that changes by ``k`` rows costs
 ``k`` back-solves per body.
 
 A force-driven plane (:attr:`contact.geometry.plane.Plane.force`) is one more column of
@@ -29,9 +32,9 @@ the spring, not the contacts, carries: the frame's "not held" result.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg as sla
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
@@ -40,6 +43,7 @@ from fem.saddle import RANK_TOL, solve_saddle
 
 from ..errors import ContactError
 from .body import ElasticBody
+from .contactsystem import BodyState, ContactSystem
 from .lcp import LcpResult, solve_lcp
 
 __all__ = ["SPRING", "TOUCHING", "BodyState", "ContactSpace", "ContactSystem", "held_by_springs"]
@@ -51,53 +55,6 @@ SPRING = 1e-5
 #: The force (over the free bodies' loads) a touching row starts from where the rows that
 #: penetrate cannot hold a free body: the active set then starts with it closed.
 TOUCHING = 1e-9
-
-
-@dataclass(frozen=True)
-class BodyState:
-    """A body's answer to its loads and contact forces.
-
-    Attributes
-    ----------
-    u : ndarray, shape (n_dofs,)
-        Displacements.
-    reactions : ndarray, shape (n_dofs,)
-        Support reactions at the prescribed DOFs (zero elsewhere).
-    rigid : ndarray
-        Rigid-mode amplitudes of a free body (empty otherwise).
-    """
-
-    u: NDArray[np.float64]
-    reactions: NDArray[np.float64]
-    rigid: NDArray[np.float64]
-
-
-@dataclass(frozen=True)
-class ContactSystem:
-    """The contact-space system ``[[W, G], [G^T, 0]] [lam; a] = [rhs; c]`` of a row set.
-
-    Attributes
-    ----------
-    w : ndarray, shape (m, m)
-        Delassus operator.
-    g : ndarray, shape (m, r)
-        The rows' values of the free bodies' placing modes.
-    rhs : ndarray, shape (m,)
-        ``-(g0 + sum_b E_b u0_b)``.
-    c : ndarray, shape (r,)
-        Minus the free bodies' loads in their modes.
-    free : tuple of str
-        The free bodies.
-    load_scale : float
-        Size of the free bodies' loads.
-    """
-
-    w: NDArray[np.float64]
-    g: NDArray[np.float64]
-    rhs: NDArray[np.float64]
-    c: NDArray[np.float64]
-    free: tuple[str, ...]
-    load_scale: float
 
 
 class ContactSpace:
@@ -129,6 +86,27 @@ class ContactSpace:
         """The rigid modes that place a free body in this space."""
         return body.solver.modes if self.rotations else body.solver.placing_modes
 
+    def turning(self, body: ElasticBody) -> fem.TurningInverse | None:
+        """A free body's border where its turns change its stiffness and it may turn."""
+        return body.turning if self.rotations else None
+
+    def width(self, body: ElasticBody) -> int:
+        """A free body's amplitudes: its placing modes', or its border's."""
+        t = self.turning(body)
+        return self.placing(body).shape[1] if t is None else t.width
+
+    def border(
+        self, body: ElasticBody, eb: sp.csr_matrix | None, m: int
+    ) -> tuple[NDArray, NDArray, NDArray]:
+        """A free body's ``G`` columns, modes' stiffness and ``c`` for its rows ``eb``."""
+        t = self.turning(body)
+        if t is not None:
+            return t.extended(sp.csr_matrix((m, body.mesh.n_dofs)) if eb is None else eb,
+                              body.loads)  # fmt: skip
+        phi = self.placing(body)
+        g = eb @ phi if eb is not None else np.zeros((m, phi.shape[1]))
+        return np.asarray(g), np.zeros((phi.shape[1],) * 2), -(phi.T @ body.loads)
+
     def free_response(self, body: ElasticBody, f: NDArray[np.float64]) -> NDArray[np.float64]:
         """``C f``: the body's displacement under loads ``f`` (a free body: rigid part removed)."""
         s = body.solver
@@ -148,8 +126,12 @@ class ContactSpace:
         """Displacement and support reactions of a body under its loads plus ``forces``."""
         s = body.solver
         f = body.loads + forces
-        u = self.own_response(body) + self.free_response(body, forces)
-        if s.free_body:
+        t = self.turning(body)
+        if t is not None:  # rigid: the border's amplitudes
+            u, rigid = t.displacement(f, rigid), np.asarray(rigid)[:6]
+        else:
+            u = self.own_response(body) + self.free_response(body, forces)
+        if s.free_body and t is None:
             u = u + s.modes @ rigid
         reactions = np.zeros(s.n)
         if s.prescribed.size:
@@ -171,6 +153,7 @@ class ContactSpace:
         rhs = -np.asarray(g0, dtype=np.float64).copy()
         balance: list[NDArray] = []
         free: list[ElasticBody] = []
+        stiff: list[NDArray] = []
         for body in self.bodies:
             eb = e.get(body.name)
             s = body.solver
@@ -179,8 +162,11 @@ class ContactSpace:
                 rhs -= eb @ self.own_response(body)
             if s.free_body:
                 free.append(body)
-                balance.append(-(self.placing(body).T @ body.loads))
+                _, h, c = self.border(body, eb if m else None, m)
+                balance.append(c)
+                stiff.append(h)
         balance += [np.array([-float(pl.force)]) for pl in self.planes]
+        stiff += [np.zeros((1, 1)) for _ in self.planes]
         scales = [float(np.linalg.norm(b.loads)) for b in free]
         return ContactSystem(
             w=w,
@@ -189,6 +175,7 @@ class ContactSpace:
             c=np.concatenate(balance) if balance else np.zeros(0),
             free=tuple(b.name for b in free) + tuple(pl.name for pl in self.planes),
             load_scale=max(scales + [float(pl.force) for pl in self.planes], default=0.0),
+            h=sla.block_diag(*stiff) if stiff else np.zeros((0, 0)),
         )
 
     def states(
@@ -198,15 +185,17 @@ class ContactSpace:
         a: NDArray[np.float64],
         bound: NDArray[np.bool_] | None = None,
         g: NDArray[np.float64] | None = None,
+        held: NDArray[np.float64] | None = None,
     ) -> dict[str, BodyState]:
         """Every body's state under contact forces ``lam`` and rigid-mode amplitudes ``a``.
 
         The amplitudes are first taken least along the modes no binding row sees
         (:meth:`gauged`, with ``bound``); ``g`` is the system's ``G`` where it was built
-        (:attr:`ContactSystem.g`), else it is built again.
+        (:attr:`ContactSystem.g`), else it is built again; ``held`` its
+        :attr:`ContactSystem.mode_rows`.
         """
         m = lam.size
-        a = self.gauged(e, lam, a, bound, g)
+        a = self.gauged(e, lam, a, bound, g, held)
         states = {}
         k = 0
         for body in self.bodies:
@@ -214,8 +203,8 @@ class ContactSpace:
             forces = eb.T @ lam if eb is not None and m else np.zeros(body.mesh.n_dofs)
             rigid = np.zeros(0)
             if body.solver.free_body:
-                r = self.placing(body).shape[1]
-                rigid = np.zeros(6)
+                r = self.width(body)
+                rigid = np.zeros(max(6, r))
                 rigid[:r] = a[k : k + r]
                 k += r
             states[body.name] = self.state(body, forces, rigid)
@@ -232,38 +221,54 @@ class ContactSpace:
         a: NDArray[np.float64],
         bound: NDArray[np.bool_] | None = None,
         g: NDArray[np.float64] | None = None,
+        held: NDArray[np.float64] | None = None,
     ) -> NDArray:
         """``a`` less its part along the modes that move no row that binds.
 
         ``bound``: the rows that bind (every normal row, open ones too: they must stay
         open; a closed contact's tangential rows); default every row. ``g``: the
-        system's ``G``, as for :meth:`states`.
+        system's ``G``, ``held`` its modes' stiffness as rows, as for :meth:`states`: a
+        mode its own stiffness holds is not gauged.
 
         A ball squeezed by two force-driven pads moves with them along their normals
         without changing a gap, and a ball held by friction at two points turns freely
         about the line through them: such motions are not determined by the contacts, and
-        the least one (the bodies and planes where the frame started) is taken. Only with
-        all six modes (friction) or force-driven planes: the frictionless placing modes'
-        free slides are how a body that is not held shows.
+        the least one (the bodies and planes where the frame started) is taken: the
+        least rigid part of the displacement (a bordered body's is not its amplitudes',
+        :meth:`fem.TurningInverse.rigid_part`). Only with all six modes (friction) or
+        force-driven planes: the frictionless placing modes' free slides are how a body
+        that is not held shows.
         """
         m = lam.size
         act = np.ones(m, dtype=bool) if bound is None else np.asarray(bound, dtype=bool)
         if not (self.planes or self.rotations) or not a.size or not act.any():
             return a
         g = (self.system_modes(e, m) if g is None else g)[act]
+        if held is not None:
+            g = np.vstack([g, held])
         _, sv, vt = np.linalg.svd(g, full_matrices=True)
         rank = int((sv > RANK_TOL * sv.max()).sum()) if sv.size and sv.max() > 0 else 0
         null = vt[rank:]
-        return a - null.T @ (null @ a)
+        if not null.size:
+            return a
+        q = a.copy()  # each body's rigid part, in its amplitudes' place
+        k = 0
+        for body in self.bodies:
+            if body.solver.free_body:
+                t = self.turning(body)
+                if t is not None:
+                    eb = e.get(body.name)
+                    f = body.loads + (eb.T @ lam if eb is not None and m else 0.0)
+                    q[k : k + 6] = t.rigid_part(f, a[k : k + 6])
+                k += self.width(body)
+        return a - null.T @ (null @ q)
 
     def system_modes(self, e: dict[str, sp.csr_matrix], m: int) -> NDArray[np.float64]:
         """``G``: the rows' values of the free bodies' and force-driven planes' modes."""
         cols = []
         for body in self.bodies:
             if body.solver.free_body:
-                phi = self.placing(body)
-                eb = e.get(body.name)
-                cols.append(eb @ phi if eb is not None else np.zeros((m, phi.shape[1])))
+                cols.append(self.border(body, e.get(body.name), m)[0])
         for pl in self.planes:
             ep = e.get(pl.name)
             col = ep @ pl.normal if ep is not None else np.zeros(m)
@@ -370,11 +375,11 @@ class ContactSpace:
         for body in self.bodies:
             if body.solver.free_body:
                 phi = self.placing(body)
-                r = phi.shape[1]
+                r = phi.shape[1]  # a border's first amplitudes are its modes'
                 f = (phi @ modal[k : k + r]).reshape(-1, 3)
                 x = body.mesh.points - body.mesh.points.mean(axis=0)
                 net[body.name] = (f.sum(axis=0), np.cross(x, f).sum(axis=0))
-                k += r
+                k += self.width(body)
         return net
 
     def solve_held(

@@ -11,10 +11,11 @@ isotropic cone and no regularisation::
     |lambda_t| <= mu lambda_p                                   (the cone)
     s = 0 where |lambda_t| < mu lambda_p                        (stick)
     lambda_t = -mu lambda_p s / |s| where s != 0                (slip, opposed to it)
-    G^T lambda = c                                              (free bodies in balance)
+    G^T lambda - H a = c                                        (free bodies in balance)
 
-is written as the root of the Alart-Curnier natural map (Alart and Curnier 1991), with
-``xi = lambda_p - c_p g`` and ``z = lambda_t - c_t s``::
+(``H``: the modes' stiffness of a body that turns with it, :mod:`contact.solver.delassus`;
+zero for linear bodies) is written as the root of the Alart-Curnier natural map (Alart
+and Curnier 1991), with ``xi = lambda_p - c_p g`` and ``z = lambda_t - c_t s``::
 
     F_p = lambda_p - max(0, xi)
     F_t = lambda_t - proj_{|.| <= mu max(0, xi)}(z)
@@ -153,9 +154,10 @@ def _reduced_step(
 
     Their forces step to zero (``d = -F`` there); the rest is a system of the closed
     contacts and the free bodies' modes only: a few rows where the candidates are many.
-    A mode that no closed contact moves and no load drives (a ball held at two points
-    turning about the line through them) is not determined by the step: its amplitude
-    is set to zero (the body where the frame started), not left to round-off.
+    A mode that no closed contact moves, no stiffness of its own holds and no load drives
+    (a ball held at two points turning about the line through them) is not determined by
+    the step: its amplitude is set to zero (the body where the frame started), not left
+    to round-off.
     """
     d = np.empty_like(f)
     d[inactive] = -f[inactive]
@@ -164,7 +166,7 @@ def _reduced_step(
         return d
     r = a.size
     m = f.size - r
-    v0 = _unseen(j, act, m, c) if r and not j[m:, m:].any() else np.zeros((r, 0))
+    v0 = _unseen(j, act, m, c) if r else np.zeros((r, 0))
     if not v0.shape[1]:
         ja = j[np.ix_(act, act)]
         d[act] = _step(ja, f[act] + j[np.ix_(act, inactive)] @ d[inactive])
@@ -191,12 +193,13 @@ def _reduced_step(
 def _unseen(j: NDArray, act: NDArray[np.bool_], m: int, c: NDArray) -> NDArray:
     """An orthonormal basis ``(r, q)`` of the modes no closed row moves and no load drives.
 
-    A mode is moved where the closed contacts' rows of ``J`` have a part along it above
-    :data:`fem.saddle.RANK_TOL` of the largest; a load's part along the unseen ones is
-    kept out (a body that falls or slides is not gauged: the step moves it).
+    A mode is moved where the closed contacts' rows of ``J``, or the balance's own (the
+    modes' stiffness, a spring), have a part along it above :data:`fem.saddle.RANK_TOL`
+    of the largest; a load's part along the unseen ones is kept out (a body that falls or
+    slides is not gauged: the step moves it).
     """
     r = j.shape[0] - m
-    ja = j[np.flatnonzero(act[:m]), m:]
+    ja = np.vstack([j[np.flatnonzero(act[:m]), m:], j[m:, m:]])
     if ja.size:
         _, sv, vt = np.linalg.svd(ja, full_matrices=True)
         top = float(sv.max(initial=0.0))
@@ -251,6 +254,7 @@ def solve_friction(
     tol: float = FRICTION_TOLERANCE,
     max_steps: int = MAX_NEWTON,
     spring: float = 0.0,
+    h: NDArray[np.float64] | None = None,
 ) -> FrictionResult:
     """Solve the frictional contact problem of a contact set (see the module docstring).
 
@@ -281,6 +285,8 @@ def solve_friction(
         Hold every free body by a spring of this stiffness in its modes, in the contacts'
         stiffness seen there (``mean |G_i|^2 / mean W_ii``): its balance row reads
         ``G^T lambda - c = spring a``, what the contacts do not carry.
+    h : ndarray, shape (r, r), optional
+        The modes' stiffness (:attr:`contact.solver.delassus.ContactSystem.h`).
 
     Returns
     -------
@@ -299,13 +305,14 @@ def solve_friction(
             tol,
             max_steps,
             spring,
+            h,
         )
 
 
 def _newton(
-    w, g, rhs, c, mu, tangent, start, load_scale, tol, max_steps, spring
+    w, g, rhs, c, mu, tangent, start, load_scale, tol, max_steps, spring, h
 ) -> FrictionResult:
-    base = NaturalMap(w, g, rhs, c, mu, tangent)
+    base = NaturalMap(w, g, rhs, c, mu, tangent, h)
     if spring:
         base = base.scaled(1.0, spring=spring)
     m, k = base.m, base.k

@@ -27,14 +27,16 @@ class NaturalMap:
     (r). With ``spring > 0`` each free body is held by a spring of that stiffness in its
     modes: the balance row reads ``G^T lambda - c - spring a = 0``, a problem that has a
     solution whether or not the contacts hold the body, and tends to the unsprung one as
-    the spring vanishes (see :func:`contact.solver.friction.solve_friction`).
+    the spring vanishes (see :func:`contact.solver.friction.solve_friction`). ``h``: the
+    modes' own stiffness, ``- h a`` in the balance row (None: zero).
     """
 
-    def __init__(self, w, g, rhs, c, mu, tangent) -> None:
+    def __init__(self, w, g, rhs, c, mu, tangent, h=None) -> None:
         self.fixed: NDArray | None = None  # Tresca: each frictional contact's radius
         self.spring = 0.0
         self.exact = False  # the slip's exact derivative instead of the modified one
         self.w, self.g, self.rhs, self.c = w, g, rhs, c
+        self.h = h if h is not None and np.size(h) and np.any(h) else None
         self.wg = np.hstack([w, g])  # the rows' values per unknown: d y / d(lam, a)
         self.k = mu.size
         self.m, self.r = g.shape
@@ -105,6 +107,8 @@ class NaturalMap:
         f[t.ravel()] = ft.ravel()
         # rows of the system that belong to no contact's normal or tangent: none
         f[self.m :] = self.g.T @ lam - self.c - self.spring * a
+        if self.h is not None:
+            f[self.m :] -= self.h @ a
         return f, {
             "closed": closed,
             "stick": stick,
@@ -172,6 +176,8 @@ class NaturalMap:
                 j[ts[:, 0], ps] -= mu * qs[:, 0]
                 j[ts[:, 1], ps] -= mu * qs[:, 1]
         j[m:, :m] = self.g.T
+        if self.h is not None:
+            j[m:, m:] = -self.h
         if self.spring:
-            j[range(m, n), range(m, n)] = -self.spring
+            j[range(m, n), range(m, n)] -= self.spring
         return j

@@ -275,7 +275,7 @@ class Friction:
             lam0 = self._start(rows, start, carried, tangent, len(full))
             res = solve_friction(
                 sys_.w, sys_.g, sys_.rhs, sys_.c, mu=mu, tangent=tangent, start=lam0,
-                load_scale=sys_.load_scale,
+                load_scale=sys_.load_scale, h=sys_.h,
             )
             self.iterations += res.iterations
             chosen = self.mu.copy()
@@ -291,7 +291,8 @@ class Friction:
         bound[: len(rows)] = True
         grip = ((res.status > 0) if res.solved else (res.status == STICK)) & (tangent[:, 0] >= 0)
         bound[tangent[grip].ravel()] = True
-        return res, space.states(e, res.lam, res.a, bound, sys_.g), e, full, tangent
+        states = space.states(e, res.lam, res.a, bound, sys_.g, sys_.mode_rows)
+        return res, states, e, full, tangent
 
     def _start(
         self,
