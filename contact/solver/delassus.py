@@ -251,7 +251,12 @@ class ContactSpace:
         null = vt[rank:]
         if not null.size:
             return a
-        q = a.copy()  # each body's rigid part, in its amplitudes' place
+        # each body's rigid part q = q0 + D a, in its amplitudes' place: for a bordered
+        # body Phi^T u (D = Phi^T Psi), else its amplitudes. Its least along the null
+        # modes; a Newton step's bodies (bordered or not) move by a step, its planes to
+        # where they are: the step's least is its bodies', the planes left out
+        q, d = a.copy(), np.eye(a.size)
+        weight = np.ones(a.size)
         k = 0
         for body in self.bodies:
             if body.solver.free_body:
@@ -260,8 +265,13 @@ class ContactSpace:
                     eb = e.get(body.name)
                     f = body.loads + (eb.T @ lam if eb is not None and m else 0.0)
                     q[k : k + 6] = t.rigid_part(f, a[k : k + 6])
+                    d[k : k + 6, k : k + 6] = t.rigid_part(np.zeros(body.mesh.n_dofs), np.eye(6))
                 k += self.width(body)
-        return a - null.T @ (null @ q)
+        if any(b.turns_freely and b.free for b in self.bodies):
+            weight[k:] = 0.0
+        dv = (d @ null.T) * weight[:, None]
+        s = np.linalg.lstsq(dv, -(q * weight), rcond=None)[0]
+        return a + null.T @ s
 
     def system_modes(self, e: dict[str, sp.csr_matrix], m: int) -> NDArray[np.float64]:
         """``G``: the rows' values of the free bodies' and force-driven planes' modes."""
