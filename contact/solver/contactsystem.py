@@ -49,6 +49,9 @@ class ContactSystem:
         Size of the free bodies' loads.
     h : ndarray, shape (r, r), optional
         The modes' stiffness (zero but for bodies that turn with their stiffness).
+    aux : ndarray of bool, shape (r,), optional
+        The amplitudes that are a border's auxiliaries, not a body's modes
+        (:meth:`fem.TurningInverse.extended`).
     """
 
     w: NDArray[np.float64]
@@ -58,6 +61,7 @@ class ContactSystem:
     free: tuple[str, ...]
     load_scale: float
     h: NDArray[np.float64] | None = None
+    aux: NDArray[np.bool_] | None = None
 
     @property
     def mode_rows(self) -> NDArray[np.float64] | None:

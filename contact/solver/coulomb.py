@@ -174,6 +174,7 @@ def unheld(frame, space: ContactSpace, friction: Friction, rows: ContactRows) ->
         res = solve_friction(
             sys_.w, g, sys_.rhs, c, mu=mu, tangent=tangent, load_scale=sys_.load_scale,
             spring=spring, start=levels[-1][1].lam if levels else None, h=sys_.h,
+            aux=sys_.aux,
         )
         if not res.solved:
             continue  # a softer one may settle

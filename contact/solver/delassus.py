@@ -154,6 +154,7 @@ class ContactSpace:
         balance: list[NDArray] = []
         free: list[ElasticBody] = []
         stiff: list[NDArray] = []
+        aux: list[NDArray] = []
         for body in self.bodies:
             eb = e.get(body.name)
             s = body.solver
@@ -165,8 +166,10 @@ class ContactSpace:
                 _, h, c = self.border(body, eb if m else None, m)
                 balance.append(c)
                 stiff.append(h)
+                aux.append((np.arange(c.size) >= 6) & (self.turning(body) is not None))
         balance += [np.array([-float(pl.force)]) for pl in self.planes]
         stiff += [np.zeros((1, 1)) for _ in self.planes]
+        aux += [np.zeros(1, bool) for _ in self.planes]
         scales = [float(np.linalg.norm(b.loads)) for b in free]
         return ContactSystem(
             w=w,
@@ -176,6 +179,7 @@ class ContactSpace:
             free=tuple(b.name for b in free) + tuple(pl.name for pl in self.planes),
             load_scale=max(scales + [float(pl.force) for pl in self.planes], default=0.0),
             h=sla.block_diag(*stiff) if stiff else np.zeros((0, 0)),
+            aux=np.concatenate(aux) if aux else np.zeros(0, bool),
         )
 
     def states(

@@ -10,7 +10,7 @@ forces out of balance ``f_ext(u) - f_int(u)``. The linear frame
 (:func:`contact.solver.iteration.solve_frame`) solves its contacts: its displacements are
 the step ``du``, its contact forces the total ones. The step is shortened where it would
 turn a cell inside out. Newton stops where the step is round-off of the body's size and
-the forces out of balance, contact forces included, round-off of its loads.
+the forces out of balance, contact forces included, round-off of the frame's largest force.
 
 Linear bodies may take part: each linearisation solves them whole, as a frame does.
 
@@ -164,7 +164,7 @@ class FiniteFrame:
         ``"converged"``, or why Newton stopped (a linearisation's own stop reason, or
         the step limit with the last residual).
     residual : float
-        The last forces out of balance over the forces' size.
+        The last largest force out of balance over the frame's largest force.
     timings : dict of str to float
         Seconds in linearising (the tangents' assembly), in the linear frames, and in
         checking the steps (residuals, cells turned inside out).
@@ -305,7 +305,7 @@ def solve_finite_frame(
         mixed = anderson(history, u, steps_now, on_material)
         if step < ANDERSON_FROM or not slow(history):
             mixed = {}
-        residual = 0.0
+        out_of_balance, scale = 0.0, 1e-300
         for b in finite:
             du = steps_now[b.name]
             moves[b.name] = float(np.abs(du).max(initial=0.0)) / size[b.name]
@@ -320,10 +320,14 @@ def solve_finite_frame(
             u[b.name], f_int = _stepped(b, u[b.name], target)
             held = b.free and res.friction is None  # frictionless: its turn held
             forces = res.contact_force[b.name]
-            residual = max(residual, _residual(b, u[b.name], f_int, forces, held))
+            r_b, scale_b = _residual(b, u[b.name], f_int, forces, held)
+            out_of_balance, scale = max(out_of_balance, r_b), max(scale, scale_b)
             last_move[b.name].append(moves[b.name])
             if b.free and full[b.name] and b.follower is None and linear_rate(last_move[b.name]):
                 slow_full.add(b.name)
+        # over the frame's largest force: a body that carries nothing (a finger a step
+        # touched and the next let go) relaxes to rest with no force of its own to scale by
+        residual = out_of_balance / scale
         clock["checks"] += time.perf_counter() - t2
         log.debug(
             "Newton step %d: step/size %s, residual %.3g, %d contacts, %s",
@@ -418,8 +422,8 @@ def _stepped(body: FiniteBody, u: NDArray, du: NDArray) -> tuple[NDArray, NDArra
 
 def _residual(
     body: FiniteBody, u: NDArray, f_int: NDArray, contact: NDArray, held: bool = False
-) -> float:
-    """The free DOFs' forces out of balance at ``u``, relative to the largest force.
+) -> tuple[float, float]:
+    """The free DOFs' largest force out of balance at ``u``, and the body's largest force.
 
     ``f_int`` the internal forces there, ``contact`` the contact forces. ``held``: a free
     body whose turn the linear frames hold (frictionless contacts, which the linear model
@@ -436,8 +440,8 @@ def _residual(
         turns = fem.rigid_body_modes(body.mesh.points + u.reshape(-1, 3))[:, 3:]
         r -= turns @ (turns.T @ r)
     scale = max(float(np.abs(f_int).max()), float(np.abs(f_ext).max(initial=0.0)),
-                float(np.abs(contact).max(initial=0.0)), 1e-300)
-    return float(np.abs(r).max()) / scale
+                float(np.abs(contact).max(initial=0.0)))
+    return float(np.abs(r).max()), scale
 
 
 def _all(bodies, u, res: FrameResult) -> dict[str, NDArray[np.float64]]:

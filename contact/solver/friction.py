@@ -35,19 +35,17 @@ instead.
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg as sla
 from numpy.typing import NDArray
 
-from fem.saddle import RANK_TOL
 from fem.threads import dense_threads
 
 from .delassus import TOUCHING
 from .natural_map import NaturalMap
+from .reducedstep import reduced_step
 
 __all__ = ["FRICTION_TOLERANCE", "FrictionResult", "solve_friction"]
 
@@ -87,8 +85,6 @@ SPRINGS = (1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6)
 #: Newton steps that polish a solve past the tolerance, towards :data:`POLISH_TOL`.
 POLISH = 3
 POLISH_TOL = 1e-14
-#: The shift, over the largest Jacobian entry, of a singular Newton system.
-SHIFT = 1e-10
 #: Tresca solves of the fixed point (each with the radii of the last normal forces).
 TRESCA = 30
 #: Iterates Anderson's acceleration of that fixed point mixes.
@@ -147,100 +143,6 @@ def _measure(prob: NaturalMap, scale: float) -> Callable[[NDArray, NDArray], flo
     return measure
 
 
-def _reduced_step(
-    j: NDArray, f: NDArray, inactive: NDArray[np.bool_], a: NDArray, c: NDArray
-) -> NDArray:
-    """Newton step ``J d = -F`` with the open contacts' rows (``J`` = identity) taken out.
-
-    Their forces step to zero (``d = -F`` there); the rest is a system of the closed
-    contacts and the free bodies' modes only: a few rows where the candidates are many.
-    A mode that no closed contact moves, no stiffness of its own holds and no load drives
-    (a ball held at two points turning about the line through them) is not determined by
-    the step: its amplitude is set to zero (the body where the frame started), not left
-    to round-off.
-    """
-    d = np.empty_like(f)
-    d[inactive] = -f[inactive]
-    act = ~inactive
-    if not act.any():
-        return d
-    r = a.size
-    m = f.size - r
-    v0 = _unseen(j, act, m, c) if r else np.zeros((r, 0))
-    if not v0.shape[1]:
-        ja = j[np.ix_(act, act)]
-        d[act] = _step(ja, f[act] + j[np.ix_(act, inactive)] @ d[inactive])
-        return d
-    # the unseen modes' amplitudes go to zero; the rest solved on the modes seen (v1),
-    # the balance in the unseen modes (no load there, no closed row moving them) dropped
-    v1 = np.linalg.svd(v0.T, full_matrices=True)[2][v0.shape[1] :].T
-    d[m:] = -v0 @ (v0.T @ a)
-    rows = np.flatnonzero(act[:m])
-    known = np.concatenate([np.flatnonzero(inactive), np.arange(m, m + r)])
-    rest = f + j[:, known] @ d[known]
-    mat = np.block(
-        [
-            [j[np.ix_(rows, rows)], j[rows, m:] @ v1],
-            [v1.T @ j[m:, rows], v1.T @ j[m:, m:] @ v1],
-        ]
-    )
-    x = _step(mat, np.concatenate([rest[rows], v1.T @ rest[m:]]))
-    d[rows] = x[: rows.size]
-    d[m:] += v1 @ x[rows.size :]
-    return d
-
-
-def _unseen(j: NDArray, act: NDArray[np.bool_], m: int, c: NDArray) -> NDArray:
-    """An orthonormal basis ``(r, q)`` of the modes no closed row moves and no load drives.
-
-    A mode is moved where the closed contacts' rows of ``J``, or the balance's own (the
-    modes' stiffness, a spring), have a part along it above :data:`fem.saddle.RANK_TOL`
-    of the largest; a load's part along the unseen ones is kept out (a body that falls or
-    slides is not gauged: the step moves it).
-    """
-    r = j.shape[0] - m
-    ja = np.vstack([j[np.flatnonzero(act[:m]), m:], j[m:, m:]])
-    if ja.size:
-        _, sv, vt = np.linalg.svd(ja, full_matrices=True)
-        top = float(sv.max(initial=0.0))
-        rank = int((sv > RANK_TOL * top).sum()) if top > 0 else 0
-        v0 = vt[rank:].T
-    else:
-        v0 = np.eye(r)
-    load = v0.T @ c
-    if v0.shape[1] and np.abs(load).max() > 1e-8 * max(float(np.abs(c).max()), 1e-300):
-        # the loaded direction among the unseen modes stays in the step
-        keep = np.linalg.svd(load[None, :], full_matrices=True)[2][1:].T
-        v0 = v0 @ keep
-    return v0
-
-
-def _step(j: NDArray, f: NDArray) -> NDArray:
-    """Newton step ``J d = -F``.
-
-    Where ``J`` is singular (rows that repeat one another, a mode nothing holds), the
-    step of ``J + delta I`` (a tiny shift) where it solves ``J d = -F`` nearly as well,
-    else least squares.
-    """
-    size = max(float(np.linalg.norm(f)), 1e-300)
-    for shift in (0.0, SHIFT * max(float(np.abs(j).max(initial=0.0)), 1e-300)):
-        try:
-            with warnings.catch_warnings():  # a singular J is looked at below
-                warnings.simplefilter("ignore", sla.LinAlgWarning)
-                lu = sla.lu_factor(
-                    j + shift * np.eye(j.shape[0]) if shift else j, check_finite=False
-                )
-                d = sla.lu_solve(lu, -f, check_finite=False)
-        except (np.linalg.LinAlgError, ValueError):
-            continue
-        if (
-            np.isfinite(d).all()
-            and np.linalg.norm(j @ d + f) <= (1e-8 if not shift else 1e-6) * size
-        ):
-            return d
-    return np.linalg.lstsq(j, -f, rcond=1e-12)[0]
-
-
 def solve_friction(
     w: NDArray[np.float64],
     g: NDArray[np.float64],
@@ -255,6 +157,7 @@ def solve_friction(
     max_steps: int = MAX_NEWTON,
     spring: float = 0.0,
     h: NDArray[np.float64] | None = None,
+    aux: NDArray[np.bool_] | None = None,
 ) -> FrictionResult:
     """Solve the frictional contact problem of a contact set (see the module docstring).
 
@@ -287,6 +190,9 @@ def solve_friction(
         ``G^T lambda - c = spring a``, what the contacts do not carry.
     h : ndarray, shape (r, r), optional
         The modes' stiffness (:attr:`contact.solver.delassus.ContactSystem.h`).
+    aux : ndarray of bool, shape (r,), optional
+        The amplitudes that are a border's auxiliaries, held by their own rows
+        (:attr:`contact.solver.delassus.ContactSystem.aux`).
 
     Returns
     -------
@@ -306,13 +212,14 @@ def solve_friction(
             max_steps,
             spring,
             h,
+            aux,
         )
 
 
 def _newton(
-    w, g, rhs, c, mu, tangent, start, load_scale, tol, max_steps, spring, h
+    w, g, rhs, c, mu, tangent, start, load_scale, tol, max_steps, spring, h, aux
 ) -> FrictionResult:
-    base = NaturalMap(w, g, rhs, c, mu, tangent, h)
+    base = NaturalMap(w, g, rhs, c, mu, tangent, h, aux)
     if spring:
         base = base.scaled(1.0, spring=spring)
     m, k = base.m, base.k
@@ -402,7 +309,7 @@ def _descend(prob: NaturalMap, lam, a, measure, tol, mode: str, budget: int):
     trail = [best[0]]
     n = 0
     while best[0] > tol and n < min(TRY_STEPS, budget):
-        d = _reduced_step(prob.jacobian(s), f, prob.inactive(s), a, prob.c)
+        d = reduced_step(prob.jacobian(s), f, prob.inactive(s), a, prob)
         if not np.isfinite(d).all():
             break
         x0 = np.concatenate([lam, a])

@@ -31,12 +31,13 @@ class NaturalMap:
     modes' own stiffness, ``- h a`` in the balance row (None: zero).
     """
 
-    def __init__(self, w, g, rhs, c, mu, tangent, h=None) -> None:
+    def __init__(self, w, g, rhs, c, mu, tangent, h=None, aux=None) -> None:
         self.fixed: NDArray | None = None  # Tresca: each frictional contact's radius
         self.spring = 0.0
         self.exact = False  # the slip's exact derivative instead of the modified one
         self.w, self.g, self.rhs, self.c = w, g, rhs, c
         self.h = h if h is not None and np.size(h) and np.any(h) else None
+        self.aux = aux  # a border's auxiliary amplitudes (solve_friction's aux)
         self.wg = np.hstack([w, g])  # the rows' values per unknown: d y / d(lam, a)
         self.k = mu.size
         self.m, self.r = g.shape

@@ -52,6 +52,21 @@ def test_a_bonded_block_pressed_by_a_frictionless_plate(kind, strain):
     assert out.residual <= 1e-8
 
 
+def test_a_body_that_carries_nothing_is_in_balance_against_the_frames_forces():
+    # a second block, started a micron off its rest, touches nothing: it relaxes to rest
+    # with no force of its own, and Newton measures what is left against the frame's
+    mesh, base = _bonded("hexahedron")
+    pressed = FiniteBody("block", mesh, MAT, prescribed=base)
+    aside = fem.Mesh(mesh.points + np.array([3 * H, 0.0, 0.0]), mesh.cells, mesh.regions)
+    idle = FiniteBody("idle", aside, MAT, prescribed=base)
+    start = {"idle": 1e-4 * H * np.sin(np.arange(mesh.n_dofs, dtype=float))}
+    start["idle"][base] = 0.0
+    plate = _plate(0.05)
+    out = solve_finite_frame([pressed, idle], [ContactPair(pressed, plate)], [plate], start=start)
+    assert out.converged and out.steps <= 6, out.stop_reason
+    assert np.abs(out.displacement["idle"]).max() <= 1e-9 * H
+
+
 def test_at_small_strain_it_is_the_linear_frame():
     mesh, base = _bonded("hexahedron")
     press = 1e-6
