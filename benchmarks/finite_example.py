@@ -101,7 +101,8 @@ def example_section(rows: list[dict]) -> str:
         "The README example's closing frame (t = 1, the hand closing on the ball), after "
         f"the frames before it, against the goal of {GOAL:g}x: {'; '.join(lines)}. The "
         "linear frame factors each body once; each Newton step assembles and factors the "
-        "tangent anew and solves a whole linear frame. The free neo-Hookean ball's steps "
-        "swing it (its free-body solve takes the rigid modes as its tangent's null space, "
-        "which a squeezed body's is not), and its frame is cut back."
+        "tangent anew and solves a whole linear frame. The free neo-Hookean ball is solved "
+        "with its turn stiffness (fem.TurningInverse); its pressurised wall's tangent, with "
+        "six DOFs held, cannot be factored once squeezed, those steps take the material "
+        "tangent, and its frame is cut back in two."
     )
