@@ -13,9 +13,9 @@ support, and ``K u = f`` reads::
 ``H`` (6 x 6, symmetric) is the stiffness of the modes once the rest has relaxed: zero for
 a linear body (then ``Psi = Phi`` and ``H a = 0`` is the loads' balance), negative along a
 turn that the forces' arms would drive (a squeezed ball) and positive where they resist
-it (a hanging one). The factored matrix is the solver's: ``J`` is its pseudo-inverse
-``C = P J P`` (``P`` the projection off the modes) and ``J Phi``
-(:meth:`fem.StaticSolver.modes_response`) give it::
+it (a hanging one). The solver factors the matrix with that support held: its
+pseudo-inverse is ``C = P J P`` (``P`` the projection off the modes), and with ``J Phi``
+(:meth:`fem.StaticSolver.modes_response`) it gives::
 
     J = C + J Phi Phi^T + Phi (J Phi)^T - Phi (Phi^T J Phi) Phi^T
 
@@ -33,7 +33,6 @@ import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import SolverError
-from .saddle import constraint_matrix
 from .statics import StaticSolver
 
 __all__ = ["TurningInverse"]
@@ -89,14 +88,6 @@ class TurningInverse:
         phi, b = self._phi, self._jphi
         pr = phi.T @ r
         return self.solver.apply_inverse(r) + b @ pr + phi @ (b.T @ r - self._m @ pr)
-
-    def compliance(self, extra: ArrayLike | sp.spmatrix) -> NDArray[np.float64]:
-        """``E J E^T`` of constraint rows (DOFs or a sparse ``(m, n)`` matrix ``E``)."""
-        e = constraint_matrix(extra, self.solver.n, self.solver.prescribed)
-        w = self.solver.compliance(e)
-        a = np.asarray(e @ self._phi)
-        eb = np.asarray(e @ self._jphi)
-        return w + eb @ a.T + a @ eb.T - a @ self._m @ a.T
 
     @property
     def width(self) -> int:

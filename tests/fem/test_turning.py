@@ -41,9 +41,6 @@ def test_border_solves_the_stressed_free_body_exactly(marked):
     k = (state.stiffness + 1e2 * sp.identity(mesh.n_dofs)).tocsr()
     placed = mesh.points + u
     solver = fem.StaticSolver(k, points=placed, lazy=True)
-    e = sp.csr_matrix(
-        np.random.default_rng(0).normal(size=(5, mesh.n_dofs)) * (np.arange(mesh.n_dofs) < 30)
-    )
     if marked:
         solver.mark(np.arange(30))
     t = fem.TurningInverse(solver.factorize())
@@ -52,8 +49,6 @@ def test_border_solves_the_stressed_free_body_exactly(marked):
     assert np.allclose(t.solve(f), exact, rtol=1e-9, atol=1e-12 * np.abs(exact).max())
     j = _clamped_inverse(k, solver)
     assert np.allclose(t.inverse(f), j @ f, atol=1e-10 * np.abs(j @ f).max())
-    w = e.toarray() @ j @ e.toarray().T
-    assert np.allclose(t.compliance(e), w, atol=1e-10 * np.abs(w).max())
     assert np.allclose(t.h, t.h.T)
 
 
@@ -96,14 +91,20 @@ def test_a_supported_body_has_no_border():
         fem.TurningInverse(fem.StaticSolver(k, fem.node_dofs([0, 1, 2, 3])))
 
 
-def test_extended_border_is_the_exact_constrained_solve():
-    """The rows' forces of the bordered system are those of ``K u = b + E^T lam``, ``E u = -g0``."""
+@pytest.mark.parametrize("marked", [False, True])
+def test_extended_border_is_the_exact_constrained_solve(marked):
+    """The rows' forces of the bordered system are those of ``K u = b + E^T lam``, ``E u = -g0``.
+
+    The rows' compliance is the solver's own (partial solves where their DOFs are marked).
+    """
     mesh, u, state = _squeezed()
     k = (state.stiffness + 1e2 * sp.identity(mesh.n_dofs)).tocsr()
-    solver = fem.StaticSolver(k, points=mesh.points + u)
-    t = fem.TurningInverse(solver)
+    solver = fem.StaticSolver(k, points=mesh.points + u, lazy=True)
     rng = np.random.default_rng(2)
-    e = sp.csr_matrix(rng.normal(size=(4, mesh.n_dofs)) * (rng.random(mesh.n_dofs) < 0.2))
+    e = sp.csr_matrix(rng.normal(size=(4, mesh.n_dofs)) * (np.arange(mesh.n_dofs) < 30))
+    if marked:
+        solver.mark(np.arange(30))
+    t = fem.TurningInverse(solver.factorize())
     b, g0 = rng.normal(size=mesh.n_dofs), 1e-3 * rng.normal(size=4)
     kd = k.toarray()
     ki = np.linalg.inv(kd)
