@@ -179,19 +179,25 @@ def test_force_driven_pads_hold_a_finite_ball_up_to_twice_mu_p(factor):
         assert res.slip["not_carried"] == pytest.approx(weight - 2 * mu * p, rel=0.01)
 
 
-def test_a_pinched_ball_turns_under_an_offset_weight_in_a_few_newton_steps():
-    # a weight hung off the centre of a ball pinched by force-driven pads turns it about
-    # the pads' axis until friction holds the moment: the free-body solve borders the
-    # ball's compliance with its turn stiffness, and Newton converges quadratically
-    r, mu, p, weight = 0.02, 0.8, 1.0, 0.2
+def _offset_weight(weight: float = 0.2, scale: float = 1.0):
+    """A ball pinched by force-driven pads (1 N, mu 0.8), a weight hung off its centre."""
+    r, mu, p = 0.02, 0.8, 1.0
     mesh = fem.ball_mesh(r, r / 5)
     loads = np.zeros(mesh.n_dofs)
-    loads[3 * int(np.argmax(mesh.points[:, 1])) + 2] = -weight
+    loads[3 * int(np.argmax(mesh.points[:, 1])) + 2] = -weight * scale
     body = FiniteBody("ball", mesh, fem.LinearElastic(1.0e5, NU), loads=loads)
     left = Plane((-r, 0, 0), (1, 0, 0), force=p, name="left")
     right = Plane((r, 0, 0), (-1, 0, 0), force=p, name="right")
     pairs = [ContactPair(body, left, friction=mu), ContactPair(body, right, friction=mu)]
-    out = solve_finite_frame([body], pairs, [left, right])
+    return mesh, loads, solve_finite_frame([body], pairs, [left, right])
+
+
+def test_a_pinched_ball_turns_under_an_offset_weight_in_a_few_newton_steps():
+    # a weight hung off the centre of a ball pinched by force-driven pads turns it about
+    # the pads' axis until friction holds the moment: the free-body solve borders the
+    # ball's compliance with its turn stiffness, and Newton converges quadratically
+    r, weight = 0.02, 0.2
+    mesh, loads, out = _offset_weight(weight)
     assert out.converged and out.result.held and out.steps <= 6, (out.steps, out.stop_reason)
     # the deformed ball in balance of forces and of moments, its contacts' forces included
     x = mesh.points + out.displacement["ball"]
@@ -200,6 +206,16 @@ def test_a_pinched_ball_turns_under_an_offset_weight_in_a_few_newton_steps():
     assert np.abs(np.cross(x, f).sum(axis=0)).max() <= 1e-7 * weight * r
     _, omega = fem.rigid_part(mesh.points, out.displacement["ball"])
     assert np.degrees(abs(omega[0])) > 5 and np.degrees(np.abs(omega[1:])).max() < 0.5
+
+
+def test_a_round_off_change_of_the_offset_weight_leaves_the_turned_ball_as_it_was():
+    _, _, out = _offset_weight()
+    _, _, again = _offset_weight(scale=1.0 + 1e-15)
+    assert (again.converged, again.result.held, again.steps) == (
+        out.converged, out.result.held, out.steps
+    )
+    u, v = out.displacement["ball"], again.displacement["ball"]
+    assert np.abs(u - v).max() <= 1e-9 * np.abs(u).max()
 
 
 def test_at_a_small_load_a_free_ball_between_plates_is_the_linear_one():
