@@ -166,19 +166,23 @@ def unheld(frame, space: ContactSpace, friction: Friction, rows: ContactRows) ->
     sum of ``mu N`` over its contacts). None where the springs' solves say neither.
     """
     sys_, mu, tangent = friction.system
-    g, c = sys_.g, sys_.c
+    g, c, h = sys_.g, sys_.c, sys_.h
     if not g.shape[1]:
         return None
+    if h is not None and sys_.aux is not None:
+        # the springs hold the modes, their own stiffness left out (negative where a
+        # squeezed body's forces drive its turn, it would undo a soft spring); a
+        # border's auxiliaries keep their exact equations
+        h = np.where(np.outer(sys_.aux, sys_.aux), h, 0.0)
     levels: list[tuple[float, FrictionResult, Slip]] = []
     for spring in SPRINGS:
         res = solve_friction(
             sys_.w, g, sys_.rhs, c, mu=mu, tangent=tangent, load_scale=sys_.load_scale,
-            spring=spring, start=levels[-1][1].lam if levels else None, h=sys_.h,
-            aux=sys_.aux,
+            spring=spring, start=levels[-1][1].lam if levels else None, h=h, aux=sys_.aux,
         )
         if not res.solved:
             continue  # a softer one may settle
-        carried = g.T @ res.lam - c - (sys_.h @ res.a if sys_.h is not None else 0.0)
+        carried = g.T @ res.lam - c - (h @ res.a if h is not None else 0.0)
         slip = _worst_slip(frame, space, rows, res, carried)  # the springs' load
         if slip is None:
             return None  # the contacts carry all but a spring's share: held

@@ -38,6 +38,8 @@ class NaturalMap:
         self.w, self.g, self.rhs, self.c = w, g, rhs, c
         self.h = h if h is not None and np.size(h) and np.any(h) else None
         self.aux = aux  # a border's auxiliary amplitudes (solve_friction's aux)
+        # springs hold the bodies' modes, not a border's auxiliaries (exact equations)
+        self.sprung = np.ones(g.shape[1]) if aux is None else (~np.asarray(aux)).astype(float)
         self.wg = np.hstack([w, g])  # the rows' values per unknown: d y / d(lam, a)
         self.k = mu.size
         self.m, self.r = g.shape
@@ -56,7 +58,8 @@ class NaturalMap:
         dt = d[self.t].mean(axis=1) if self.fr.size else np.zeros(0)
         self.ct = 1.0 / np.maximum(dt, floor)
         # the springs' unit: the contacts' stiffness seen in the modes
-        dg = float(np.mean(np.einsum("ij,ij->i", g, g))) if g.size else 0.0
+        gm = g[:, self.sprung > 0]
+        dg = float(np.mean(np.einsum("ij,ij->i", gm, gm))) if gm.size else 0.0
         self.unit = (dg if dg > 0 else 1.0) / max(float(d.mean()) if d.size else 1.0, 1e-300)
 
     def scaled(
@@ -107,7 +110,7 @@ class NaturalMap:
         ft = np.where(stick[:, None], self.ct[:, None] * y[t], lt - radius[:, None] * q)
         f[t.ravel()] = ft.ravel()
         # rows of the system that belong to no contact's normal or tangent: none
-        f[self.m :] = self.g.T @ lam - self.c - self.spring * a
+        f[self.m :] = self.g.T @ lam - self.c - self.spring * self.sprung * a
         if self.h is not None:
             f[self.m :] -= self.h @ a
         return f, {
@@ -180,5 +183,5 @@ class NaturalMap:
         if self.h is not None:
             j[m:, m:] = -self.h
         if self.spring:
-            j[range(m, n), range(m, n)] -= self.spring
+            j[range(m, n), range(m, n)] -= self.spring * self.sprung
         return j
