@@ -266,3 +266,25 @@ def test_a_force_only_unsettled_frames_reach_is_the_solvers_limit() -> None:
     assert not d.converged
     assert "did not settle" in d.reason and "solver's limit" in d.reason
     assert max(a for a, _ in d.settled()) <= 20.9
+
+
+def test_a_search_guided_by_unsettled_trials_alone_never_asks_for_one_again() -> None:
+    # a pinch at a light grip: first contact, then every frame past it stops short with a
+    # force above the target (the ball turned, friction did not settle); the secant of
+    # those trials points back, and the search neither repeats an angle nor calls the
+    # force reached
+    f = _hertz(39.0)
+    calls: list[float] = []
+
+    def solve(angles):
+        a = angles["j"]
+        calls.append(a)
+        if a > 39.05:  # stopped short with a force past the truth
+            return None, {"j": f(a) + 0.05}, "friction did not settle"
+        return None, {"j": f(a)}, ""
+
+    target = Target("j", 0.04, 0.02, 90.0)
+    _, _, drives = drive(solve, {"j": 39.0}, {"j": 40.1}, [target], max_steps=12)
+    d = drives["j"]
+    assert not d.converged and "solver's limit" in d.reason
+    assert len(calls) == len(set(calls)) and len(calls) <= 12

@@ -211,11 +211,12 @@ def _next(d: Drive, target: Target) -> float:
         return min(a0 + min(press, GROWTH * step), target.limit)
     a0, f0 = guide[-2]
     step = a1 - a0
-    if hi is None:  # every force below the target: extrapolate upwards
+    if hi is None:  # every settled force below the target: the secant, up (or back, where
+        # trials that did not settle guide it and passed the force)
         slope = (f1 - f0) / step if step else 0.0
         grow = GROWTH * abs(step)
         want = (target.force - f1) / slope if slope > 0 else grow
-        return min(a1 + min(max(want, 0.0), grow), target.limit)
+        return min(a1 + min(max(want, -grow), grow), target.limit)
     # every force solved above it (the finger pressed already at first contact): step back
     # by the secant of the last two solves
     first = abs(d.trials[1][0] - d.trials[0][0]) or 1.0
@@ -287,6 +288,15 @@ def drive(
                     done.add(t.joint)
                     break
                 angles = {**last, t.joint: _next(d, t)}
+                again = _repeated(d, angles[t.joint])
+                if again is not None:
+                    d.reason = (
+                        f"{t.joint}: the frames at {again:.6g} deg and within "
+                        f"{ANGLE_RESOLUTION:g} deg of it did not settle (the solver's limit, "
+                        f"not the finger's: {d.unsettled[again]})"
+                    )
+                    done.add(t.joint)
+                    break
                 result, forces, why = solve(dict(angles))
                 solves += 1
                 last = angles
@@ -314,6 +324,18 @@ def drive(
                 f"{hi if hi is not None else '-'} deg)"
             )
     return result, last, drives
+
+
+def _repeated(d: Drive, angle: float) -> float | None:
+    """The current search's trial near ``angle`` that did not settle, or None.
+
+    Near: within :data:`ANGLE_RESOLUTION`. A search guided by such trials alone could ask
+    for the same angle again.
+    """
+    for a, _ in d.trials[d._start :]:
+        if a in d.unsettled and abs(a - angle) < ANGLE_RESOLUTION:
+            return a
+    return None
 
 
 def _back(d: Drive) -> float:
