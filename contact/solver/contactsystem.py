@@ -38,11 +38,12 @@ class ContactSystem:
     w : ndarray, shape (m, m)
         Delassus operator.
     g : ndarray, shape (m, r)
-        The rows' values of the free bodies' placing modes.
+        The rows' values of the free bodies' placing modes (a bordered body's eighteen
+        columns, :meth:`fem.TurningInverse.extended`) and of the force-driven planes'.
     rhs : ndarray, shape (m,)
         ``-(g0 + sum_b E_b u0_b)``.
     c : ndarray, shape (r,)
-        Minus the free bodies' loads in their modes.
+        Minus the free bodies' loads in their modes (a border's, as ``g``).
     free : tuple of str
         The free bodies.
     load_scale : float
