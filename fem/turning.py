@@ -52,6 +52,9 @@ class TurningInverse:
         The modes' columns ``Psi = Phi - J S``: a mode's motion with the rest relaxed.
     h : ndarray, shape (6, 6)
         The modes' stiffness ``H`` (symmetric; N per unit amplitude).
+    phi_psi : ndarray, shape (6, 6)
+        ``Phi^T Psi``: the rigid part of the modes' columns (the identity for a linear
+        body).
 
     Examples
     --------
@@ -77,6 +80,7 @@ class TurningInverse:
         s = np.asarray(solver.k @ phi)
         js = self.inverse(s)
         self.psi = phi - js
+        self.phi_psi = phi.T @ self.psi
         h = phi.T @ s - s.T @ js
         self.h = (h + h.T) / 2
 
@@ -134,8 +138,7 @@ class TurningInverse:
 
     def rigid_part(self, f: ArrayLike, a: ArrayLike) -> NDArray[np.float64]:
         """``Phi^T u`` of :meth:`displacement`: its part along the modes."""
-        phi_psi = self._phi.T @ self.psi
-        return self._jphi.T @ np.asarray(f, dtype=np.float64) + phi_psi @ np.asarray(a)[:6]
+        return self._jphi.T @ np.asarray(f, dtype=np.float64) + self.phi_psi @ np.asarray(a)[:6]
 
     def solve(self, f: ArrayLike) -> NDArray[np.float64]:
         """``K^-1 f`` (a check of the border: the contact solves use its parts)."""

@@ -23,8 +23,10 @@ target within :data:`ANGLE_RESOLUTION` (a node entering the contact).
 A trial whose frame did not settle (Newton or friction stopped short, a linear ball
 turned past its bound) guides the next step but never brackets the root nor ends the
 search: the next trial goes halfway back to the settled trials below the force (above
-it, where none is below), and a joint whose trials fail within :data:`ANGLE_RESOLUTION`
-of them stops, saying so (the solver's limit, not the finger's).
+it, where none is below; with none settled past first contact, along the secant of the
+trials that did not settle), and a joint whose next trial would fall within
+:data:`ANGLE_RESOLUTION` of the settled ones next to it or of one that did not settle
+stops, saying so (the solver's limit, not the finger's).
 """
 
 from __future__ import annotations

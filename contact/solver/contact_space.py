@@ -55,6 +55,7 @@ def solve_contact_space(
     frame: FrameState,
     anchors: Anchors | None = None,
     search_from: dict[str, NDArray[np.float64]] | None = None,
+    slip_from: bool = False,
 ) -> FrameResult:
     """Resolve the frame's contacts in contact space (see the module docstring).
 
@@ -68,6 +69,8 @@ def solve_contact_space(
         Without friction, displacements ``(N, 3)`` of some bodies at which the first
         contact set is measured instead of at rest (a Newton step's linear bodies where the
         last step left them, so that a contact it closed is a candidate again).
+    slip_from : bool
+        With friction, give the anchors slip was measured from (``FrameResult.slip_from``).
 
     Returns
     -------
@@ -262,7 +265,9 @@ def solve_contact_space(
         anchors=ends,
         slip=None if slip is None else slip.record(),
     )
-    return replace(res, slip_from=friction.measured_from()) if friction.active else res
+    if friction.active and slip_from:
+        res = replace(res, slip_from=friction.measured_from())
+    return res
 
 
 def carried(rows: ContactRows, lam: NDArray[np.float64], grown: ContactRows) -> NDArray[np.float64]:

@@ -155,6 +155,7 @@ class ContactSpace:
         free: list[ElasticBody] = []
         stiff: list[NDArray] = []
         aux: list[NDArray] = []
+        cols: list[NDArray] = []
         for body in self.bodies:
             eb = e.get(body.name)
             s = body.solver
@@ -163,17 +164,19 @@ class ContactSpace:
                 rhs -= eb @ self.own_response(body)
             if s.free_body:
                 free.append(body)
-                _, h, c = self.border(body, eb if m else None, m)
+                g, h, c = self.border(body, eb, m)
+                cols.append(g)
                 balance.append(c)
                 stiff.append(h)
                 aux.append((np.arange(c.size) >= 6) & (self.turning(body) is not None))
+        cols += self._plane_columns(e, m)
         balance += [np.array([-float(pl.force)]) for pl in self.planes]
         stiff += [np.zeros((1, 1)) for _ in self.planes]
         aux += [np.zeros(1, bool) for _ in self.planes]
         scales = [float(np.linalg.norm(b.loads)) for b in free]
         return ContactSystem(
             w=w,
-            g=self.system_modes(e, m),
+            g=np.hstack(cols) if cols else np.zeros((m, 0)),
             rhs=rhs,
             c=np.concatenate(balance) if balance else np.zeros(0),
             free=tuple(b.name for b in free) + tuple(pl.name for pl in self.planes),
@@ -269,7 +272,7 @@ class ContactSpace:
                     eb = e.get(body.name)
                     f = body.loads + (eb.T @ lam if eb is not None and m else 0.0)
                     q[k : k + 6] = t.rigid_part(f, a[k : k + 6])
-                    d[k : k + 6, k : k + 6] = t.rigid_part(np.zeros(body.mesh.n_dofs), np.eye(6))
+                    d[k : k + 6, k : k + 6] = t.phi_psi
                 k += self.width(body)
         if any(b.turns_freely and b.free for b in self.bodies):
             weight[k:] = 0.0
@@ -283,11 +286,17 @@ class ContactSpace:
         for body in self.bodies:
             if body.solver.free_body:
                 cols.append(self.border(body, e.get(body.name), m)[0])
+        cols += self._plane_columns(e, m)
+        return np.hstack(cols) if cols else np.zeros((m, 0))
+
+    def _plane_columns(self, e: dict[str, sp.csr_matrix], m: int) -> list[NDArray[np.float64]]:
+        """The force-driven planes' columns of ``G``: their rows' values of their translations."""
+        cols = []
         for pl in self.planes:
             ep = e.get(pl.name)
             col = ep @ pl.normal if ep is not None else np.zeros(m)
             cols.append(np.asarray(col, dtype=np.float64).reshape(m, 1))
-        return np.hstack(cols) if cols else np.zeros((m, 0))
+        return cols
 
     def solve(
         self, e: dict[str, sp.csr_matrix], g0: NDArray[np.float64]

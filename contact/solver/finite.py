@@ -20,9 +20,12 @@ supported one plus springs along its last contacts closed on planes (:func:`_spr
 which change nothing of a step along those rows. Where the full tangent cannot be
 factored or its linear frame fails, the step takes the material tangent
 (:func:`fem.finite_strain` with ``tangent="material"``), whose null space is exactly the
-rigid modes, and so does a free body whose steps shrink only at a linear rate
-(:func:`contact.solver.newtonrate.linear_rate`). A free body's step turns it by a finite
-rotation, at most :data:`MAX_TURN` (:func:`_turned`). Newton stops as stalled where its
+rigid modes. A free body's full tangent does not vanish on its turns: with friction its
+frames border it with its turn stiffness (:class:`fem.TurningInverse`,
+:meth:`contact.solver.delassus.ContactSpace.border`); one whose steps still shrink only
+at a linear rate takes the material tangent (:func:`contact.solver.newtonrate.linear_rate`).
+A free body's step turns it by a finite rotation, at most :data:`MAX_TURN`
+(:func:`_turned`). Newton stops as stalled where its
 residual no longer halves (:data:`STALL`). Friction's slip is measured from the previous
 frame's anchors and from where the frame's steps first met each contact, in every step
 (:meth:`contact.solver.anchors.Anchors.keeping`); without friction, once a contact flips
@@ -268,8 +271,9 @@ def solve_finite_frame(
         ]  # fmt: skip
         try:
             res = solve_frame(
-                now, paired, planes, settings, anchors=anchors, callback=callback, search_from=near
-            )
+                now, paired, planes, settings, anchors=anchors, callback=callback,
+                search_from=near, slip_from=True,
+            )  # fmt: skip
         except fem.SolverError as exc:
             res, stop = None, f"a finite body's tangent could not be factored at this strain: {exc}"
         finally:

@@ -47,6 +47,7 @@ def solve_frame(
     callback: Callable[[IterationRecord], None] | None = None,
     anchors: Anchors | None = None,
     search_from: dict[str, NDArray[np.float64]] | None = None,
+    slip_from: bool = False,
 ) -> FrameResult:
     """Resolve the contacts of one frame.
 
@@ -74,6 +75,9 @@ def solve_frame(
         Without friction, displacements ``(N, 3)`` of some bodies at which the first
         contact set is measured instead of at rest (see
         :func:`~contact.solver.contact_space.solve_contact_space`).
+    slip_from : bool
+        With friction, give the anchors the frame measured slip from
+        (``FrameResult.slip_from``), for a Newton loop's next step of the same frame.
 
     Returns
     -------
@@ -104,4 +108,4 @@ def solve_frame(
                     '"contact-space"'
                 )
             return solve_seed(frame, dirichlet or frame.bodies[0].name)
-        return solve_contact_space(frame, anchors, search_from)
+        return solve_contact_space(frame, anchors, search_from, slip_from)

@@ -59,12 +59,13 @@ class Flips:
 
 
 def linear_rate(moves: list[float]) -> bool:
-    """A free body's full-tangent steps shrink at a linear rate: its turn moves its forces.
+    """A free body's full-tangent steps shrink at a linear rate, not Newton's.
 
-    The free-body solve takes the full tangent's rigid modes as its null space, which
-    they are only where no force acts; under a squeeze the steps then shrink by a
-    constant ratio, and the material tangent (its null space exactly the rigid modes,
-    with Anderson mixing) does better.
+    The free-body solve borders the full tangent with its turn stiffness
+    (:class:`fem.TurningInverse`), so its steps converge quadratically where the linear
+    frames are Newton's; where they still shrink by a constant ratio (a frictionless
+    body, whose turns the frames hold), the material tangent, with Anderson mixing, does
+    better.
     """
     return len(moves) >= 3 and moves[-1] > SLOW_FULL * moves[-2]
 

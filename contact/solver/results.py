@@ -202,7 +202,8 @@ class FrameResult:
         The anchors this frame measured each frictional contact's slip from: those
         carried in and those met in the frame, each where it was first met, with the
         frame's starting placements (:class:`contact.solver.anchors.Anchors`); None
-        without friction. Newton's next linearisation of the same frame starts from them
+        without friction or where not asked for (``solve_frame``'s ``slip_from``).
+        Newton's next linearisation of the same frame starts from them
         (:mod:`contact.solver.finite`), so that its friction law stays the frame's.
     contact_fields : dict of str to dict of str to ndarray
         Body name -> nodal fields of the contacts: ``normal_force`` ``(N,)`` (N),
