@@ -56,6 +56,7 @@ def solve_contact_space(
     anchors: Anchors | None = None,
     search_from: dict[str, NDArray[np.float64]] | None = None,
     slip_from: bool = False,
+    prox: dict[str, float] | None = None,
 ) -> FrameResult:
     """Resolve the frame's contacts in contact space (see the module docstring).
 
@@ -71,6 +72,9 @@ def solve_contact_space(
         last step left them, so that a contact it closed is a candidate again).
     slip_from : bool
         With friction, give the anchors slip was measured from (``FrameResult.slip_from``).
+    prox : dict of str to float, optional
+        With friction, springs on these free bodies' modes (a Newton step's damping,
+        :class:`~contact.solver.delassus.ContactSpace`).
 
     Returns
     -------
@@ -82,7 +86,10 @@ def solve_contact_space(
     st = frame.settings
     contacts = frame.contacts
     friction = Friction(frame, anchors)
-    space = ContactSpace(frame.bodies, rotations=friction.active, planes=frame.driven.planes)
+    space = ContactSpace(
+        frame.bodies, rotations=friction.active, planes=frame.driven.planes,
+        prox=prox if friction.active else None,
+    )  # fmt: skip
     u = friction.start()
     if search_from and not friction.active:  # where given for a body of this mesh
         u = {n: search_from[n] if n in search_from and search_from[n].shape == v.shape else v

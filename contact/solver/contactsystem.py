@@ -53,6 +53,10 @@ class ContactSystem:
     aux : ndarray of bool, shape (r,), optional
         The amplitudes that are a border's auxiliaries, not a body's modes
         (:meth:`fem.TurningInverse.extended`).
+    prox : ndarray, shape (r,), optional
+        Springs on the amplitudes, in the contacts' stiffness seen in the modes
+        (:attr:`contact.solver.natural_map.NaturalMap.unit`): a Newton step's damping of
+        the free finite bodies' steps (zero on a border's auxiliaries and on planes).
     """
 
     w: NDArray[np.float64]
@@ -63,6 +67,7 @@ class ContactSystem:
     load_scale: float
     h: NDArray[np.float64] | None = None
     aux: NDArray[np.bool_] | None = None
+    prox: NDArray[np.float64] | None = None
 
     @property
     def mode_rows(self) -> NDArray[np.float64] | None:

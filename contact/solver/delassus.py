@@ -31,7 +31,7 @@ the spring, not the contacts, carries: the frame's "not held" result.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import scipy.linalg as sla
@@ -72,14 +72,22 @@ class ContactSpace:
         Force-driven planes: rigid bodies of one mode (a translation along the normal)
         loaded by their force, placed with the free bodies (after them in ``a``); their
         parts of the rows are ``e[plane.name]`` (:meth:`FrameState.matrices`).
+    prox : mapping of str to float, optional
+        Springs on some free bodies' modes, in the contacts' stiffness seen there
+        (:attr:`ContactSystem.prox`): a Newton step's damping, whose amplitudes are a step.
     """
 
     def __init__(
-        self, bodies: Sequence[ElasticBody], rotations: bool = False, planes: Sequence = ()
+        self,
+        bodies: Sequence[ElasticBody],
+        rotations: bool = False,
+        planes: Sequence = (),
+        prox: Mapping[str, float] | None = None,
     ) -> None:
         self.bodies = list(bodies)
         self.rotations = rotations
         self.planes = list(planes)
+        self.prox = dict(prox or {})
         self._u0: dict[str, NDArray[np.float64]] = {}
 
     def placing(self, body: ElasticBody) -> NDArray[np.float64]:
@@ -155,6 +163,7 @@ class ContactSpace:
         free: list[ElasticBody] = []
         stiff: list[NDArray] = []
         aux: list[NDArray] = []
+        prox: list[NDArray] = []
         cols: list[NDArray] = []
         for body in self.bodies:
             eb = e.get(body.name)
@@ -169,10 +178,12 @@ class ContactSpace:
                 balance.append(c)
                 stiff.append(h)
                 aux.append((np.arange(c.size) >= 6) & (self.turning(body) is not None))
+                prox.append(np.where(aux[-1], 0.0, self.prox.get(body.name, 0.0)))
         cols += self._plane_columns(e, m)
         balance += [np.array([-float(pl.force)]) for pl in self.planes]
         stiff += [np.zeros((1, 1)) for _ in self.planes]
         aux += [np.zeros(1, bool) for _ in self.planes]
+        prox += [np.zeros(1) for _ in self.planes]
         scales = [float(np.linalg.norm(b.loads)) for b in free]
         return ContactSystem(
             w=w,
@@ -183,6 +194,7 @@ class ContactSpace:
             load_scale=max(scales + [float(pl.force) for pl in self.planes], default=0.0),
             h=sla.block_diag(*stiff) if stiff else np.zeros((0, 0)),
             aux=np.concatenate(aux) if aux else np.zeros(0, bool),
+            prox=np.concatenate(prox) if self.prox and prox else None,
         )
 
     def states(

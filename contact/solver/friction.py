@@ -158,6 +158,7 @@ def solve_friction(
     spring: float = 0.0,
     h: NDArray[np.float64] | None = None,
     aux: NDArray[np.bool_] | None = None,
+    prox: NDArray[np.float64] | None = None,
 ) -> FrictionResult:
     """Solve the frictional contact problem of a contact set (see the module docstring).
 
@@ -193,6 +194,10 @@ def solve_friction(
     aux : ndarray of bool, shape (r,), optional
         The amplitudes that are a border's auxiliaries, held by their own rows
         (:attr:`contact.solver.delassus.ContactSystem.aux`).
+    prox : ndarray, shape (r,), optional
+        Springs of the problem's own on the amplitudes, in the unit of ``spring``
+        (:attr:`contact.solver.delassus.ContactSystem.prox`): unlike ``spring``, part of
+        the problem solved, not of the way to its solution.
 
     Returns
     -------
@@ -213,13 +218,14 @@ def solve_friction(
             spring,
             h,
             aux,
+            prox,
         )
 
 
 def _newton(
-    w, g, rhs, c, mu, tangent, start, load_scale, tol, max_steps, spring, h, aux
+    w, g, rhs, c, mu, tangent, start, load_scale, tol, max_steps, spring, h, aux, prox
 ) -> FrictionResult:
-    base = NaturalMap(w, g, rhs, c, mu, tangent, h, aux)
+    base = NaturalMap(w, g, rhs, c, mu, tangent, h, aux, prox)
     if spring:
         base = base.scaled(1.0, spring=spring)
     m, k = base.m, base.k

@@ -48,6 +48,7 @@ def solve_frame(
     anchors: Anchors | None = None,
     search_from: dict[str, NDArray[np.float64]] | None = None,
     slip_from: bool = False,
+    prox: dict[str, float] | None = None,
 ) -> FrameResult:
     """Resolve the contacts of one frame.
 
@@ -78,6 +79,10 @@ def solve_frame(
     slip_from : bool
         With friction, give the anchors the frame measured slip from
         (``FrameResult.slip_from``), for a Newton loop's next step of the same frame.
+    prox : dict of str to float, optional
+        With friction, springs on these free bodies' rigid modes, in the contacts'
+        stiffness seen there: a Newton step's damping of bodies whose displacements are
+        a step (:func:`contact.solver.finite.solve_finite_frame`).
 
     Returns
     -------
@@ -108,4 +113,4 @@ def solve_frame(
                     '"contact-space"'
                 )
             return solve_seed(frame, dirichlet or frame.bodies[0].name)
-        return solve_contact_space(frame, anchors, search_from, slip_from)
+        return solve_contact_space(frame, anchors, search_from, slip_from, prox)

@@ -28,10 +28,12 @@ class NaturalMap:
     modes: the balance row reads ``G^T lambda - c - spring a = 0``, a problem that has a
     solution whether or not the contacts hold the body, and tends to the unsprung one as
     the spring vanishes (see :func:`contact.solver.friction.solve_friction`). ``h``: the
-    modes' own stiffness, ``- h a`` in the balance row (None: zero).
+    modes' own stiffness, ``- h a`` in the balance row (None: zero). ``prox``: springs of
+    their own on some amplitudes (in :attr:`unit`), kept by every variant of the problem:
+    a Newton step's damping, part of the problem solved.
     """
 
-    def __init__(self, w, g, rhs, c, mu, tangent, h=None, aux=None) -> None:
+    def __init__(self, w, g, rhs, c, mu, tangent, h=None, aux=None, prox=None) -> None:
         self.fixed: NDArray | None = None  # Tresca: each frictional contact's radius
         self.spring = 0.0
         self.exact = False  # the slip's exact derivative instead of the modified one
@@ -61,6 +63,9 @@ class NaturalMap:
         gm = g[:, self.sprung > 0]
         dg = float(np.mean(np.einsum("ij,ij->i", gm, gm))) if gm.size else 0.0
         self.unit = (dg if dg > 0 else 1.0) / max(float(d.mean()) if d.size else 1.0, 1e-300)
+        self.prox = (
+            None if prox is None or not np.any(prox) else np.asarray(prox, float) * self.unit
+        )
 
     def scaled(
         self,
@@ -113,6 +118,8 @@ class NaturalMap:
         f[self.m :] = self.g.T @ lam - self.c - self.spring * self.sprung * a
         if self.h is not None:
             f[self.m :] -= self.h @ a
+        if self.prox is not None:
+            f[self.m :] -= self.prox * a
         return f, {
             "closed": closed,
             "stick": stick,
@@ -184,4 +191,6 @@ class NaturalMap:
             j[m:, m:] = -self.h
         if self.spring:
             j[range(m, n), range(m, n)] -= self.spring * self.sprung
+        if self.prox is not None:
+            j[range(m, n), range(m, n)] -= self.prox
         return j

@@ -275,7 +275,7 @@ class Friction:
             lam0 = self._start(rows, start, carried, tangent, len(full))
             res = solve_friction(
                 sys_.w, sys_.g, sys_.rhs, sys_.c, mu=mu, tangent=tangent, start=lam0,
-                load_scale=sys_.load_scale, h=sys_.h, aux=sys_.aux,
+                load_scale=sys_.load_scale, h=sys_.h, aux=sys_.aux, prox=sys_.prox,
             )
             self.iterations += res.iterations
             chosen = self.mu.copy()

@@ -80,3 +80,25 @@ def test_a_spring_carries_what_the_contacts_do_not() -> None:
 def _unit(p: dict) -> float:
     g, w = p["g"], p["w"]
     return float(np.mean(np.einsum("ij,ij->i", g, g))) / float(np.mean(np.diag(w)))
+
+
+def test_a_step_damped_by_springs_of_its_own_is_the_sprung_problem() -> None:
+    """``prox``: springs that belong to the problem (a Newton step's damping) hold the
+    amplitudes they are on, and only those; on every one, the spring's solution."""
+    p = _case("two_bodies")
+    args = (p["w"], p["g"], p["rhs"], p["c"])
+    kw = dict(mu=p["mu"], tangent=p["tangent"], load_scale=float(p["load_scale"]))
+    r = p["g"].shape[1]
+    sprung = solve_friction(*args, **kw, spring=1e-2)
+    damped = solve_friction(*args, **kw, prox=np.full(r, 1e-2))
+    assert sprung.solved and damped.solved
+    scale = np.abs(sprung.lam).max()
+    assert np.abs(damped.lam - sprung.lam).max() <= 1e-8 * scale
+    # on the first body's modes only: the second's balance is exact, the first's sprung
+    prox = np.zeros(r)
+    prox[:6] = 1e-2
+    one = solve_friction(*args, **kw, prox=prox)
+    assert one.solved
+    unbalanced = p["g"].T @ one.lam - p["c"]
+    assert np.allclose(unbalanced, prox * _unit(p) * one.a, atol=1e-9 * scale)
+    assert np.abs(unbalanced[:6]).max() > 1e-6 * scale
