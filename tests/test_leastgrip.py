@@ -206,10 +206,13 @@ def test_first_trial_is_reused() -> None:
 # --- what a trial measures ------------------------------------------------------------
 
 
-def fake(stop="converged", held=True, converged=True, friction=None, contacts=None, slip=None):
+def fake(
+    stop="converged", held=True, converged=True, friction=None, contacts=None, slip=None,
+    below_grip=False,
+):  # fmt: skip
     return SimpleNamespace(
         stop_reason=stop, held=held, converged=converged, friction=friction, contacts=contacts,
-        slip=slip, over_limit={},
+        slip=slip, over_limit={}, below_grip=below_grip,
     )
 
 
@@ -249,6 +252,20 @@ def test_judge_a_bone_limit_holds_other_stops_do_not(tmp_path: Path) -> None:
     assert not tr.holds and not tr.slipped and tr.time == 1.0 and tr.solves == 2
     unconverged_held = fake("cycling", held=True, converged=False)
     assert not judge(1.0, [unconverged_held], [1.0], scene).holds
+
+
+def test_judge_held_below_the_forces_asked_holds(tmp_path: Path) -> None:
+    # a finger's force jumps over its target as a node enters the contact: the frame
+    # solved and held at the force below it holds at the larger one asked
+    scene = load_scene(pads(tmp_path))
+    jump = "finger force not reached: index_pip: its finger's force jumps"
+    below = fake(jump, held=True, converged=False, below_grip=True)
+    assert judge(1.0, [fake(), below], [0.5, 1.0], scene).holds
+    # above the force asked, or not solved: it says nothing of the grip asked
+    above = fake(jump, held=True, converged=False, below_grip=False)
+    assert not judge(1.0, [above], [1.0], scene).holds
+    unsolved = fake(f"iteration limit; {jump}", held=None, converged=False, below_grip=False)
+    assert not judge(1.0, [unsolved], [1.0], scene).holds
 
 
 # --- the scene's grip -------------------------------------------------------------------

@@ -21,7 +21,8 @@ outside a bracket), which bounds the number of trials however noisy ``h`` is.
 
 A verdict is a promise: a trial holds only when every frame is held and converged (a
 frame whose bone passes its limit is converged and counts as held: its contacts hold the
-ball; the frame's own verdict says the bone is overloaded). A trial whose ball slips or
+ball; the frame's own verdict says the bone is overloaded; so does one held where its
+fingers' forces jump over those asked and it stopped below them). A trial whose ball slips or
 turns brackets the answer from below; one that fails for another reason (friction that
 did not settle, a finger force not reached, an iteration limit, bad input) says nothing
 of the grip and never brackets it: the search steps past it, and where only such trials
@@ -45,16 +46,9 @@ from ..scene.spec import Scene
 from ..solver.results import FrameResult
 
 __all__ = [
-    "BOUND",
-    "FULL",
-    "MAX_TRIALS",
-    "LeastGrip",
-    "Trial",
-    "judge",
-    "least_grip",
-    "measure",
+    "BOUND", "FULL", "MAX_TRIALS", "LeastGrip", "Trial", "judge", "least_grip", "measure",
     "search",
-]
+]  # fmt: skip
 
 #: The largest (and 1 / the smallest) scale of the scene's grip the search tries.
 BOUND = 64.0
@@ -249,8 +243,13 @@ def _pair_mu(scene: Scene, pair: str, body: str) -> float:
 
 
 def _holds(result: FrameResult) -> bool:
-    """A frame holds: held and converged (a bone over its limit does not stop a frame)."""
-    return result.held is True and bool(result.converged)
+    """A frame holds: held and converged (a bone over its limit does not stop a frame).
+
+    Or held where its fingers stopped below the forces asked (a force that jumps as a
+    node enters the contact, :attr:`FrameResult.below_grip`): a grip that holds at smaller
+    finger forces holds at those asked, as the search's premise (held grows with the grip).
+    """
+    return result.held is True and (bool(result.converged) or result.below_grip)
 
 
 def judge(

@@ -372,11 +372,14 @@ class GraspRun:
         for j, d in drives.items():
             self.auto_flexed[j] = {**self.auto_flexed[j], "angle": d.angle, **d.record()}
         extra["auto_flexion"] = self.auto_flexed
-        short = [d.reason for d in drives.values() if not d.converged]
+        short = [d for d in drives.values() if not d.converged]
         if short:
-            why = "finger force not reached: " + "; ".join(short)
+            why = "finger force not reached: " + "; ".join(d.reason for d in short)
             stop = why if result.converged else f"{result.stop_reason}; {why}"
-            result = dataclasses.replace(result, converged=False, stop_reason=stop)
+            below = result.converged and all(d.reached < d.force for d in short)
+            result = dataclasses.replace(
+                result, converged=False, stop_reason=stop, below_grip=below
+            )
         return result, extra, planes, bodies
 
     def _parts(self) -> NDArray[np.int64]:

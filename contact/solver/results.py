@@ -217,6 +217,10 @@ class FrameResult:
         Where friction does not hold a free body: ``body``, ``direction`` (unit, the way
         it slips), ``not_carried`` (the load its contacts leave, N) and ``available``
         (their friction, ``sum mu N``, N); None otherwise.
+    below_grip : bool
+        Its force-driven fingers stopped short of their forces, every one below its own
+        (a force that jumps over it as a node enters the contact), the frame itself
+        solved: what it says of holding holds for the forces asked, which are larger.
     """
 
     converged: bool
@@ -241,6 +245,7 @@ class FrameResult:
     contact_fields: dict[str, dict[str, NDArray]] = field(default_factory=dict)
     plane_positions: dict[str, NDArray[np.float64]] = field(default_factory=dict)
     slip: dict | None = None
+    below_grip: bool = False
 
     def total_contact_force(self, body: str) -> NDArray[np.float64]:
         """Sum of the contact forces on one body (N)."""
