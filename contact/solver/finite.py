@@ -52,6 +52,7 @@ from ..errors import ContactError
 from ..geometry.plane import Plane
 from .anchors import Anchors
 from .body import ElasticBody
+from .damping import Damping
 from .iteration import solve_frame
 from .newtonrate import ANDERSON_FROM, Flips, anderson, linear_rate, slow
 from .pairs import ContactPair
@@ -72,13 +73,6 @@ RESIDUAL = 1e-8
 HALVINGS = 20
 #: The largest turn (rad) of a free body in one Newton step: a longer step is shortened.
 MAX_TURN = 0.1
-#: Damping of a free body's step by a spring in its modes, in the contacts' stiffness seen
-#: there (:class:`~contact.solver.delassus.ContactSpace`): ``(first, most, least)``. A step
-#: whose friction does not settle is solved again damped tenfold more (from the first); one
-#: that turns a body more than twice :data:`MAX_TURN` again damped in proportion, while that
-#: shortens it (less, it is shortened). Each step taken scales the damping by its turn over MAX_TURN (down to a tenth), to
-#: none below the least: a trust region on the turn.
-PROX = (1e-2, 1.0, 1e-5)
 #: Newton stops as stalled where the residual's least value over its last ``STALL``
 #: steps is not half the least before them: a cycling contact set, a linear rate too
 #: slow to finish (a frame is then cut into smaller steps of time by the run).
@@ -258,9 +252,8 @@ def solve_finite_frame(
     last_move: dict[str, list[float]] = {b.name: [] for b in finite}
     residuals: list[float] = []
     swung = 0
-    prox = 0.0  # the free bodies' damping (PROX)
-    free = any(b.free for b in finite)
-    tried = np.inf  # the turn of this step's last try
+    damping = Damping()  # the free bodies' steps' springs (contact.solver.damping)
+    free = [b.name for b in finite if b.free]
     step = 0
     while step < max_steps:
         step += 1
@@ -283,7 +276,7 @@ def solve_finite_frame(
             res = solve_frame(
                 now, paired, planes, settings, anchors=anchors, callback=callback,
                 search_from=near, slip_from=True,
-                prox={b.name: prox for b in finite if b.free} if prox else None,
+                prox=damping.springs(free),
             )  # fmt: skip
         except fem.SolverError as exc:
             res, stop = None, f"a finite body's tangent could not be factored at this strain: {exc}"
@@ -291,12 +284,10 @@ def solve_finite_frame(
             t2 = time.perf_counter()
             clock["linear frames"] += t2 - t1
         unsettled = res is not None and not res.converged and res.held is not False
-        if unsettled and res.friction is not None and prox < PROX[1] and free:
-            # a linearisation whose free body friction does not place (a ball pinched at
-            # two points, nearly free to swing about them): the step is damped, retried
-            prox = PROX[0] if not prox else 10.0 * prox
-            log.debug("Newton step %d: %s: free bodies' steps damped by %g",
-                      step, res.stop_reason, prox)
+        if unsettled and res.friction is not None and free and damping.unsettled():
+            # a free body friction does not place (a ball pinched at two points, nearly
+            # free to swing about them): the step again, damped
+            log.debug("Newton step %d: %s: damped by %g", step, res.stop_reason, damping.prox)
             step -= 1
             continue
         if any(full.values()) and (res is None or not (res.converged or res.held is False)):
@@ -309,18 +300,13 @@ def solve_finite_frame(
         if res is None:
             res = last  # a later step's tangent failed: the frame stops at the last step's
             break
-        turn = max((_angle(b, u[b.name], res.displacement[b.name]) for b in finite if b.free),
-                   default=0.0)  # fmt: skip
-        if res.converged and res.friction is not None and 2 * MAX_TURN < turn < 0.5 * tried:
-            if prox < PROX[1]:
-                # a free body far from its balance (a ball that swings to hang below a
-                # pinch): the step is damped to turn it about MAX_TURN, and retried
-                tried, prox = turn, min(max(prox, PROX[0]) * turn / MAX_TURN, PROX[1])
-                log.debug("Newton step %d: turns %.3g rad: free bodies' steps damped by %g",
-                          step, turn, prox)
-                step -= 1
-                continue
-        tried = np.inf
+        motion = max((_motion(b, u[b.name], res.displacement[b.name], size[b.name])
+                      for b in finite if b.free), default=0.0)  # fmt: skip
+        if res.converged and res.friction is not None and damping.too_far(motion):
+            # a free body far from its balance: the step again, damped to move it less
+            log.debug("Newton step %d: moves %.3g: damped by %g", step, motion, damping.prox)
+            step -= 1
+            continue
         last = res
         # frictionless, once a contact flips: the next step's first search looks at the
         # linear bodies where this one left them (what it closed stays a candidate)
@@ -330,6 +316,12 @@ def solve_finite_frame(
         if res.slip_from is not None:
             anchors = anchors.keeping(res.slip_from)
         if not res.converged:
+            if res.held is False and res.friction is not None and free and damping.unheld(res, u):
+                # not held where it is: followed, damped, toward where its contacts may be
+                log.debug("Newton step %d: %s: damped by %g", step, res.stop_reason,
+                          damping.prox)  # fmt: skip
+                step -= 1
+                continue
             stop = res.stop_reason
             log.debug("Newton step %d: the linear frame stopped: %s", step, stop)
             break
@@ -342,9 +334,7 @@ def solve_finite_frame(
         if step < ANDERSON_FROM or not slow(history):
             mixed = {}
         out_of_balance, scale = 0.0, 1e-300
-        damp = prox
-        prox *= min(max(turn / MAX_TURN, 0.1), 1.0)
-        prox = 0.0 if prox < PROX[2] else prox
+        damp = damping.taken(motion)
         for b in finite:
             du = steps_now[b.name]
             moves[b.name] = float(np.abs(du).max(initial=0.0)) / size[b.name]
@@ -361,7 +351,7 @@ def solve_finite_frame(
             forces = res.contact_force[b.name]
             r_b, scale_b = _residual(b, u[b.name], f_int, forces, held)
             out_of_balance, scale = max(out_of_balance, r_b), max(scale, scale_b)
-            if not damp and turn <= MAX_TURN:  # a Newton step's own rate
+            if not damp and motion <= MAX_TURN:  # a Newton step's own rate
                 last_move[b.name].append(moves[b.name])
             if b.free and full[b.name] and b.follower is None and linear_rate(last_move[b.name]):
                 slow_full.add(b.name)
@@ -382,6 +372,10 @@ def solve_finite_frame(
         if len(residuals) > 2 * STALL and step - swung > STALL and stalled:
             stop = f"Newton stalled at residual {residual:.2g} after {step} steps"
             break
+    if damping.verdict is not None:
+        # a body not held, followed, found no balance: the verdict where it was found
+        res, u = damping.verdict
+        stop = res.stop_reason
     if res is None:
         raise ContactError(stop)
     if stop == "iteration limit":
@@ -420,10 +414,13 @@ def _springs(
     return sp.csr_matrix((blocks.ravel(), (rows, cols)), shape=(n, n))
 
 
-def _angle(body: FiniteBody, u: NDArray, du: NDArray) -> float:
-    """The angle (rad) by which the step ``du`` turns ``body`` placed at ``u``."""
-    return float(np.linalg.norm(fem.rigid_part(body.mesh.points + u.reshape(-1, 3),
-                                               np.reshape(du, (-1, 3)))[1]))
+def _motion(body: FiniteBody, u: NDArray, du: NDArray, size: float) -> float:
+    """The rigid motion of the step ``du`` of ``body`` placed at ``u``.
+
+    Its turn (rad), or its move over the body's half size ``size / 2`` where that is more.
+    """
+    t, omega = fem.rigid_part(body.mesh.points + u.reshape(-1, 3), np.reshape(du, (-1, 3)))
+    return max(float(np.linalg.norm(omega)), 2.0 * float(np.linalg.norm(t)) / size)
 
 
 def _turned(body: FiniteBody, u: NDArray, du: NDArray) -> tuple[NDArray, bool]:
