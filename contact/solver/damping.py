@@ -39,8 +39,9 @@ class Damping:
     prox : float
         The springs' stiffness for the next solve (0: none).
     verdict : tuple or None
-        The first linear frame that found a free body not held, and the displacements it
-        was solved at: the frame's verdict where following the body finds no balance.
+        The last undamped linear frame that found a free body not held, and the
+        displacements it was solved at: the frame's verdict where following the body
+        finds no balance.
     """
 
     prox: float = 0.0
@@ -87,6 +88,7 @@ class Damping:
         """
         if self.prox:
             return self.unsettled()
+        self.verdict = (result, dict(u))
         slip = result.slip or {}
         c, f = float(slip.get("available", 0.0)), float(slip.get("not_carried", np.inf))
         share = (f / (c + f) if c + f > 0 else 1.0, bool(slip.get("turns", False)))
@@ -95,8 +97,6 @@ class Damping:
             last is None or share[1] != last[1] or share[0] < (1 - PROGRESS) * last[0]
         ):
             return False
-        if self.verdict is None:
-            self.verdict = (result, dict(u))
         self._share, self._follows, self._following = share, self._follows + 1, True
         self.prox = FIRST
         return True

@@ -372,8 +372,8 @@ def solve_finite_frame(
         if len(residuals) > 2 * STALL and step - swung > STALL and stalled:
             stop = f"Newton stalled at residual {residual:.2g} after {step} steps"
             break
-    if damping.verdict is not None:
-        # a body not held, followed, found no balance: the verdict where it was found
+    if damping.verdict is not None and res is not None and res.held is not False:
+        # a body not held, followed, stopped short of a verdict: the last one found
         res, u = damping.verdict
         stop = res.stop_reason
     if res is None:

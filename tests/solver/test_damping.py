@@ -52,8 +52,9 @@ def test_a_body_not_held_is_followed_while_the_share_left_falls() -> None:
     d.taken(0.0)
     assert d.unheld(_unheld(0.1, turns=True), {})  # only a moment left now: followed
     d.taken(0.0)
-    assert not d.unheld(_unheld(0.1, turns=True), {})  # no progress: stops
-    assert d.verdict == (first, {"ball": 1})  # the frame's verdict: where it was found
+    last = _unheld(0.1, turns=True)
+    assert not d.unheld(last, {"ball": 3})  # no progress: stops
+    assert d.verdict == (last, {"ball": 3})  # the frame's verdict: where it stopped
 
 
 def test_a_load_no_motion_balances_stops_at_once_and_following_is_bounded() -> None:
