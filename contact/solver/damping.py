@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["FIRST", "FOLLOW", "LEAST", "MOST", "PROGRESS", "REACH", "Damping"]
+__all__ = ["FIRST", "FOLLOW", "IDLE", "LEAST", "MOST", "PROGRESS", "REACH", "Damping"]
 
 #: The springs' first, largest and least stiffness, in the contacts' seen in the modes.
 FIRST, MOST, LEAST = 1e-2, 1.0, 1e-5
@@ -28,6 +28,8 @@ REACH = 0.1
 #: Damped steps that may follow a body its contacts do not hold where it is, and the
 #: fraction by which each must lessen the share of its loads they leave.
 FOLLOW, PROGRESS = 12, 1e-3
+#: Damped steps in a row that leave the residual above its least before an undamped one.
+IDLE = 3
 
 
 @dataclass
@@ -50,6 +52,8 @@ class Damping:
     _share: tuple[float, bool] | None = None  # the last share not carried, and a turn
     _follows: int = 0
     _following: bool = False
+    _least: float = np.inf  # the least residual after a step
+    _idle: int = 0  # damped steps in a row that left the residual above its least
 
     def springs(self, names: list[str]) -> dict[str, float] | None:
         """The springs on the bodies ``names`` for the next solve (None: none)."""
@@ -101,16 +105,20 @@ class Damping:
         self.prox = FIRST
         return True
 
-    def taken(self, motion: float) -> float:
-        """A step taken, its rigid motion ``motion``: its springs; the next step's set.
+    def taken(self, motion: float, residual: float) -> float:
+        """A step taken, its rigid motion and the residual after it: its springs; the next's.
 
         After a step that followed a body not held, none (the next solve says whether its
-        contacts hold it now); else scaled by the motion over :data:`REACH` (down to a
-        tenth), none below :data:`LEAST`.
+        contacts hold it now); so too after :data:`IDLE` damped steps in a row that left
+        the residual above its least (the springs carry a load the contacts may never
+        take: a ball that slides out of a pinch). Else scaled by the motion over
+        :data:`REACH` (down to a tenth), none below :data:`LEAST`.
         """
         damp = self.prox
-        if self._following:
-            self.prox, self._following = 0.0, False
+        self._idle = self._idle + 1 if damp and residual >= self._least else 0
+        self._least = min(self._least, residual)
+        if self._following or self._idle >= IDLE:
+            self.prox, self._following, self._idle = 0.0, False, 0
         else:
             self.prox *= min(max(motion / REACH, 0.1), 1.0)
             if self.prox < LEAST:

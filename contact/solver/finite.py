@@ -334,7 +334,7 @@ def solve_finite_frame(
         if step < ANDERSON_FROM or not slow(history):
             mixed = {}
         out_of_balance, scale = 0.0, 1e-300
-        damp = damping.taken(motion)
+        damp = damping.prox
         for b in finite:
             du = steps_now[b.name]
             moves[b.name] = float(np.abs(du).max(initial=0.0)) / size[b.name]
@@ -358,6 +358,7 @@ def solve_finite_frame(
         # over the frame's largest force: a body that carries nothing (a finger a step
         # touched and the next let go) relaxes to rest with no force of its own to scale by
         residual = out_of_balance / scale
+        damping.taken(motion, residual)
         clock["checks"] += time.perf_counter() - t2
         log.debug(
             "Newton step %d: step/size %s, residual %.3g, %d contacts, %s, damped %g",
