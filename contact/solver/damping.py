@@ -93,8 +93,8 @@ class Damping:
         if self.prox:
             return self.unsettled()
         self.verdict = (result, dict(u))
-        slip = result.slip or {}
-        c, f = float(slip.get("available", 0.0)), float(slip.get("not_carried", np.inf))
+        slip = result.slip or {}  # none: it touches nothing, all its load is left
+        c, f = float(slip.get("available", 0.0)), float(slip.get("not_carried", 1.0))
         share = (f / (c + f) if c + f > 0 else 1.0, bool(slip.get("turns", False)))
         last = self._share
         if self._follows >= FOLLOW or not (

@@ -90,3 +90,10 @@ def test_a_damped_solve_not_held_is_damped_more() -> None:
     d = Damping(prox=FIRST)
     assert d.unheld(_unheld(0.2), {}) and d.prox == pytest.approx(10 * FIRST)
     assert d.verdict is None  # a damped solve's is not the frame's verdict
+
+
+def test_a_body_that_touches_nothing_leaves_all_its_load() -> None:
+    d = Damping()
+    assert d.unheld(SimpleNamespace(slip=None), {})  # falls: followed once
+    d.taken(0.0, 1.0)
+    assert not d.unheld(SimpleNamespace(slip=None), {})  # nothing gained: stops
