@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 import contact.run.grasprun
+import contact.solver.finite
 from contact.holding.leastgrip import judge, least_grip
 from contact.run import GraspRun
 from contact.scene.read import load_scene
@@ -53,13 +54,14 @@ COLUMNS = (
 def _search(scene: Any, name: str, case: str) -> dict[str, Any]:
     """The scene's own run, then the search from it, counting contact solves."""
     calls = [0]
-    solve = contact.run.grasprun.solve_frame
+    solve = contact.run.grasprun.solve_frame  # linear frames, and each Newton step's
 
     def counted(*args: Any, **kw: Any) -> Any:
         calls[0] += 1
         return solve(*args, **kw)
 
     contact.run.grasprun.solve_frame = counted
+    contact.solver.finite.solve_frame = counted
     try:
         run = GraspRun(scene)
         times = list(scene.frames)
@@ -72,6 +74,7 @@ def _search(scene: Any, name: str, case: str) -> dict[str, Any]:
         seconds = time.perf_counter() - t0
     finally:
         contact.run.grasprun.solve_frame = solve
+        contact.solver.finite.solve_frame = solve
     lo, hi = found.lo, found.hi
     return {
         "scene": name,
