@@ -292,15 +292,6 @@ class ContactSpace:
         s = np.linalg.lstsq(dv, -(q * weight), rcond=None)[0]
         return a + null.T @ s
 
-    def system_modes(self, e: dict[str, sp.csr_matrix], m: int) -> NDArray[np.float64]:
-        """``G``: the rows' values of the free bodies' and force-driven planes' modes."""
-        cols = []
-        for body in self.bodies:
-            if body.solver.free_body:
-                cols.append(self.border(body, e.get(body.name), m)[0])
-        cols += self._plane_columns(e, m)
-        return np.hstack(cols) if cols else np.zeros((m, 0))
-
     def _plane_columns(self, e: dict[str, sp.csr_matrix], m: int) -> list[NDArray[np.float64]]:
         """The force-driven planes' columns of ``G``: their rows' values of their translations."""
         cols = []

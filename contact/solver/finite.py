@@ -300,8 +300,11 @@ def solve_finite_frame(
         if res is None:
             res = last  # a later step's tangent failed: the frame stops at the last step's
             break
-        motion = max((_motion(b, u[b.name], res.displacement[b.name], size[b.name])
-                      for b in finite if b.free), default=0.0)  # fmt: skip
+        # each free body's step's rigid part (t, omega), at its placement
+        parts = {b.name: fem.rigid_part(b.mesh.points + u[b.name].reshape(-1, 3),
+                                        res.displacement[b.name].reshape(-1, 3))
+                 for b in finite if b.free}  # fmt: skip
+        motion = max((_motion(*parts[n], size[n]) for n in parts), default=0.0)
         if res.converged and res.friction is not None and damping.too_far(motion):
             # a free body far from its balance: the step again, damped to move it less
             log.debug("Newton step %d: moves %.3g: damped by %g", step, motion, damping.prox)
@@ -341,7 +344,7 @@ def solve_finite_frame(
             if b.name in mixed:
                 target = mixed[b.name] - u[b.name]
             elif b.free:
-                target, short = _turned(b, u[b.name], du)
+                target, short = _turned(b, u[b.name], du, parts[b.name])
                 if short:
                     swung = step  # the body is still on its way
             else:
@@ -415,16 +418,17 @@ def _springs(
     return sp.csr_matrix((blocks.ravel(), (rows, cols)), shape=(n, n))
 
 
-def _motion(body: FiniteBody, u: NDArray, du: NDArray, size: float) -> float:
-    """The rigid motion of the step ``du`` of ``body`` placed at ``u``.
+def _motion(t: NDArray, omega: NDArray, size: float) -> float:
+    """A step's rigid motion (:func:`fem.rigid_part` ``t, omega``) for a body of ``size``.
 
     Its turn (rad), or its move over the body's half size ``size / 2`` where that is more.
     """
-    t, omega = fem.rigid_part(body.mesh.points + u.reshape(-1, 3), np.reshape(du, (-1, 3)))
     return max(float(np.linalg.norm(omega)), 2.0 * float(np.linalg.norm(t)) / size)
 
 
-def _turned(body: FiniteBody, u: NDArray, du: NDArray) -> tuple[NDArray, bool]:
+def _turned(
+    body: FiniteBody, u: NDArray, du: NDArray, part: tuple[NDArray, NDArray] | None = None
+) -> tuple[NDArray, bool]:
     """A free body's step with its rigid turn taken as a finite rotation; and shortened.
 
     The linearised step turns the body by ``omega x r``, which stretches it by about
@@ -433,11 +437,11 @@ def _turned(body: FiniteBody, u: NDArray, du: NDArray) -> tuple[NDArray, bool]:
     placement ``x``) is taken as ``x -> c + t + R(omega) (x - c + d)`` instead
     (:func:`fem.turned_placement`), ``d`` the rest of the step: the same to first order,
     no stretch from the turn. A step that turns the body by more than :data:`MAX_TURN`
-    is shortened to it, and says so.
+    is shortened to it, and says so. ``part``: that rigid part where it is known.
     """
     x = body.mesh.points + u.reshape(-1, 3)
     d = du.reshape(-1, 3)
-    t, omega = fem.rigid_part(x, d)
+    t, omega = fem.rigid_part(x, d) if part is None else part
     angle = float(np.linalg.norm(omega))
     short = angle > MAX_TURN
     if short:
