@@ -12,7 +12,7 @@ import re
 import threading
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -24,6 +24,7 @@ __all__ = [
     "Column",
     "Measurement",
     "PeakMemory",
+    "linear_flesh",
     "load_average",
     "machine_info",
     "measure",
@@ -35,6 +36,17 @@ __all__ = [
 
 MIB = 1024**2
 GIB = 1024**3
+
+def linear_flesh(scene: Any) -> Any:
+    """``scene`` with its hand's flesh linear: the studies of the linear frame's cost.
+
+    The shipped hand examples' flesh is neo-Hookean (``benchmarks/finite.py`` measures it).
+    """
+    if scene.hand is None:
+        return scene
+    flesh = replace(scene.hand.flesh, model="linear")
+    return replace(scene, hand=replace(scene.hand, flesh=flesh))
+
 
 #: Where full runs write their results.
 RESULTS = Path(__file__).resolve().parent / "results"

@@ -33,6 +33,7 @@ from contact.solver.results import FrameResult
 
 from ._common import (
     Column,
+    linear_flesh,
     load_average,
     machine_info,
     markdown_table,
@@ -224,7 +225,7 @@ def _example_rows(repeat: int = REPEAT) -> list[dict]:
     path = Path(__file__).resolve().parents[1] / "examples" / "bowl.toml"
     best: list[dict] = []
     for _ in range(repeat):
-        run = GraspRun(load_scene(path))
+        run = GraspRun(linear_flesh(load_scene(path)))
         rows = []
         for i, t in enumerate(run.scene.frames):
             # the frame's bodies and their solver counts before solving it

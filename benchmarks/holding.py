@@ -106,17 +106,15 @@ def _pads() -> dict[str, Any]:
 
 def _pinch(finite: bool) -> list[dict[str, Any]]:
     scene = load_scene(EXAMPLES / "pinch.toml")
-    name = "hand pinch"
-    if finite:
-        name = "hand pinch, neo-Hookean"
-        hand = scene.hand
-        scene = dataclasses.replace(
-            scene,
-            ball=dataclasses.replace(scene.ball, model="neo-hookean"),
-            hand=dataclasses.replace(
-                hand, flesh=dataclasses.replace(hand.flesh, model="neo-hookean")
-            ),
-        )
+    name = "hand pinch, neo-Hookean" if finite else "hand pinch"
+    model = "neo-hookean" if finite else "linear"
+    scene = dataclasses.replace(
+        scene,
+        ball=dataclasses.replace(scene.ball, model=model),
+        hand=dataclasses.replace(
+            scene.hand, flesh=dataclasses.replace(scene.hand.flesh, model=model)
+        ),
+    )
     rows = [_search(scene, name, "its own ball")]
     heavy = dataclasses.replace(
         scene, ball=dataclasses.replace(scene.ball, density=2.0 * scene.ball.density)

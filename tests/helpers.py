@@ -13,6 +13,25 @@ import numpy as np
 import fem
 from contact.solver.delassus import ContactSpace
 
+ROOT = Path(__file__).resolve().parents[1]
+#: The model of the shipped hand examples' flesh (and of the pinch's ball).
+SHIPPED = 'model = "neo-hookean"'
+
+
+def example(name: str, model: str | None = None) -> str:
+    """The text of ``examples/<name>.toml``, its mesh paths absolute.
+
+    ``model``: ``"linear"`` or ``"neo-hookean"`` on every material the example sets
+    neo-Hookean (a test of the linear model's behaviour names it); None leaves it as
+    shipped.
+    """
+    text = (ROOT / "examples" / f"{name}.toml").read_text()
+    text = text.replace('"../meshes/', f'"{ROOT.as_posix()}/meshes/')
+    if model is not None:
+        assert SHIPPED in text, f"examples/{name}.toml has no neo-Hookean material"
+        text = text.replace(SHIPPED, f'model = "{model}"')
+    return text
+
 
 def distort(mesh: fem.Mesh, amount: float, seed: int = 0, boundary: bool = True) -> fem.Mesh:
     """Move nodes randomly by up to ``amount`` times the smallest grid spacing."""

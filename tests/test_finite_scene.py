@@ -25,6 +25,7 @@ from contact.objects.placed import from_ball
 from contact.run import GraspRun
 from contact.scene import load_scene
 from fem.follower import follower_pressure
+from tests.helpers import example
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -129,18 +130,18 @@ def test_a_finite_finger_press_is_the_linear_one_at_a_small_press(tmp_path: Path
     # neo-Hookean give the linear forces; the bones carry what the skin takes. The law's
     # volume is the nodes' averaged one: the linear flesh's likewise (plain linear
     # tetrahedra at nu 0.45 lock, and press 16 % harder here)
-    text = (ROOT / "examples" / "finger_press.toml").read_text()
-    text = text.replace("press = 0.0005 ", "press = 0.00005")
-    flesh = "flesh = { E = 5.0e4, nu = 0.45 }"
+    text = example("finger_press", "linear").replace("press = 0.0005 ", "press = 0.00005")
+    flesh = 'flesh = { E = 5.0e4, nu = 0.45, model = "linear" }'
+    assert flesh in text
     text = text.replace(flesh, flesh + "\nnodal_pressure = true")
     text = text.replace('"results/finger_press"', f'"{tmp_path.as_posix()}"')
     forces = {}
     for finite in (False, True):
         scene = text
         if finite:
+            scene = scene.replace('model = "linear"', 'model = "neo-hookean"')
             model = ', model = "neo-hookean" }'
             scene = scene.replace("density = 1100.0 }", "density = 1100.0" + model)
-            scene = scene.replace("nu = 0.45 }", "nu = 0.45" + model)
         path = tmp_path / f"press_{finite}.toml"
         path.write_text(scene)
         run = GraspRun(load_scene(path))
@@ -167,13 +168,12 @@ def test_a_round_off_change_leaves_the_finite_verdict(tmp_path: Path) -> None:
     assert max(abs(s[3] - seen[0][3]) for s in seen) <= 1e-8 * abs(seen[0][3])
 
 
-def _with_neo_hookean_flesh(tmp_path: Path, example: str, frames: list[str]) -> list[dict]:
-    """The shipped ``example`` with its flesh neo-Hookean, run at ``frames``: their records."""
-    text = (ROOT / "examples" / f"{example}.toml").read_text()
-    flesh = "flesh = { E = 5.0e4, nu = 0.45, density = 1000.0 }"
-    assert flesh in text
-    path = tmp_path / f"{example}.toml"
-    path.write_text(text.replace(flesh, flesh[:-2] + ', model = "neo-hookean" }'))
+def _with_neo_hookean_flesh(tmp_path: Path, name: str, frames: list[str]) -> list[dict]:
+    """The shipped example ``name`` (its flesh neo-Hookean) run at ``frames``: their records."""
+    text = example(name)
+    assert 'flesh = { E = 5.0e4, nu = 0.45, density = 1000.0, model = "neo-hookean" }' in text
+    path = tmp_path / f"{name}.toml"
+    path.write_text(text)
     out = tmp_path / "out"
     args = [str(path), "--out", str(out), "--frames", *frames, "--no-pictures", "--quiet"]
     assert main(args) == 0

@@ -13,13 +13,20 @@ from contact.grasp import main
 from contact.run import GraspRun
 from contact.scene import load_scene
 from contact.solver.held import MAX_TURN
+from tests.helpers import example
 
 ROOT = Path(__file__).resolve().parents[1]
 PINCH = ROOT / "examples" / "pinch.toml"
 
 
-def test_the_pinch_holds_its_ball_with_the_index_force_asked() -> None:
-    run = GraspRun(load_scene(PINCH))
+def _scene(tmp_path: Path, model: str | None) -> Path:
+    path = tmp_path / "pinch.toml"
+    path.write_text(example("pinch", model))
+    return path
+
+
+def test_the_linear_pinch_holds_its_ball_with_the_index_force_asked(tmp_path: Path) -> None:
+    run = GraspRun(load_scene(_scene(tmp_path, "linear")))
     res, extra, _, bodies = run.frame(0.5)
     assert res.converged and res.held, res.stop_reason
     index = extra["auto_flexion"]["index_pip"]
@@ -41,10 +48,28 @@ def test_the_pinch_holds_its_ball_with_the_index_force_asked() -> None:
 
 
 @pytest.mark.slow
+def test_the_shipped_pinch_holds_its_ball_at_both_forces(tmp_path: Path) -> None:
+    # ball and flesh neo-Hookean: the index presses 0.3 N, then 0.6 N; the ball balances
+    # on its deformed placement
+    run = GraspRun(load_scene(_scene(tmp_path, None)))
+    for t, force in ((0.5, 0.3), (1.0, 0.6)):
+        res, extra, _, bodies = run.frame(t)
+        assert res.converged and res.held, res.stop_reason
+        index = extra["auto_flexion"]["index_pip"]
+        assert index["converged"] and abs(index["reached"] - force) <= 0.02 * force
+        ball = bodies[0]
+        assert ball.finite
+        f = res.contact_force["ball"] + ball.loads.reshape(-1, 3)
+        scale = np.abs(res.contact_force["ball"]).sum()
+        assert np.abs(f.sum(axis=0)).max() <= 1e-6 * scale
+        assert res.friction is not None and res.friction.max_cone_use <= 1 + 1e-9
+
+
+@pytest.mark.slow
 def test_the_least_grip_grows_with_the_ball_s_mass(tmp_path: Path) -> None:
     found = {}
     for density in (1100.0, 2200.0):
-        text = PINCH.read_text().replace("density = 1100.0", f"density = {density}")
+        text = example("pinch").replace("density = 1100.0", f"density = {density}")
         out = tmp_path / str(density)
         text = text.replace('directory = "results/pinch"', f'directory = "{out.as_posix()}"')
         path = tmp_path / f"pinch_{density:g}.toml"

@@ -21,15 +21,14 @@ def test_quick_run_writes_its_table_and_goals(tmp_path):
         assert 0 < r["force_finite"] and 0 < r["force_linear"]
 
 
-def test_the_readme_example_is_made_neo_hookean_in_its_ball_and_flesh_only():
-    from benchmarks.finite_example import EXAMPLE, _neo_hookean
+def test_the_readme_example_gets_the_models_asked_on_its_ball_and_flesh_only():
+    from benchmarks.finite_example import EXAMPLE, _models
 
-    text = _neo_hookean(EXAMPLE.read_text())
-    lines = [line for line in text.splitlines() if 'model = "neo-hookean"' in line]
-    assert [line.split("=")[0].strip() for line in lines] == ["material", "flesh"]
-    assert all(line.rstrip().endswith("}") or "#" in line for line in lines)
-    with pytest.raises(RuntimeError, match="material and flesh"):
-        _neo_hookean("[ball]\nradius = 0.03\n")
-    flesh = _neo_hookean(EXAMPLE.read_text(), ("flesh",))
-    lines = [line for line in flesh.splitlines() if 'model = "neo-hookean"' in line]
-    assert [line.split("=")[0].strip() for line in lines] == ["flesh"]
+    for ball, flesh in (("linear", "linear"), ("linear", "neo-hookean"), ("neo-hookean",) * 2):
+        text = _models(EXAMPLE.read_text(), ball, flesh)
+        lines = [line.split("#")[0] for line in text.splitlines() if "model = " in line]
+        assert [line.split("=")[0].strip() for line in lines] == ["material", "flesh"]
+        assert [line.count("model = ") for line in lines] == [1, 1]
+        assert f'model = "{ball}" }}' in lines[0] and f'model = "{flesh}" }}' in lines[1]
+    with pytest.raises(RuntimeError, match="material table"):
+        _models("[ball]\nradius = 0.03\n", "linear", "linear")

@@ -16,7 +16,7 @@ from contact.solver.body import ElasticBody
 from contact.solver.friction import SLIP, STICK, solve_friction
 from contact.solver.pairs import ContactPair
 from contact.solver.tangential import tangent_basis
-from tests.helpers import roundoff, same_outcome
+from tests.helpers import example, roundoff, same_outcome
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -338,11 +338,10 @@ def _moment(points, forces, about):
 
 
 def test_a_frictional_hand_holds_the_example_ball_in_balance(tmp_path):
-    # the bowl example with skin friction 0.5: two-way rows between skin and ball, a
-    # frictionless bowl; every frame held, the ball in balance in force and moment
-    text = (ROOT / "examples" / "bowl.toml").read_text().replace(
-        "[hand]\n", "[hand]\nfriction = 0.5\n", 1
-    )
+    # the bowl example with skin friction 0.5 and linear flesh: two-way rows between skin
+    # and ball, a frictionless bowl; every frame held, the ball in balance in force and
+    # moment
+    text = example("bowl", "linear").replace("[hand]\n", "[hand]\nfriction = 0.5\n", 1)
     path = tmp_path / "bowl.toml"
     path.write_text(text)
     run = GraspRun(load_scene(path))
