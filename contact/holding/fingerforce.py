@@ -17,8 +17,12 @@ to :data:`GROWTH` times the last step, and the Illinois variant of regula falsi 
 root is bracketed, bisecting a bracket two steps did not halve. Turns repeat until every
 force is within its ``force_tolerance``, in at most :data:`MAX_STEPS` solves a joint that
 settle (and as many more that do not).
-A joint stops short where it reaches its limit, or where its force jumps across the
-target within :data:`ANGLE_RESOLUTION` (a node entering the contact).
+A joint stops short at its limit, or where its force jumps across the target within
+:data:`ANGLE_RESOLUTION` (a node entering the contact, stick turning to slip): the frame
+then ends below the jump, its grip no firmer than the one asked. A trial whose free body
+is not held counts as below the force, whatever its fingers' forces (a moving body's): a
+finger closed less holds no better. So where the least angle that holds gives more than
+the target, the frame ends not held, next below it.
 
 A trial whose frame did not settle (Newton or friction stopped short, a linear ball
 turned past its bound) guides the next step but never brackets the root nor ends the
@@ -56,7 +60,7 @@ __all__ = [
 FIRST_PRESS = 5e-4
 #: Contact solves that settle a frame may take for each of its force-driven joints (and as
 #: many that do not: they say nothing of the force).
-MAX_STEPS = 8
+MAX_STEPS = 12
 #: The largest factor by which an extrapolated step may exceed the joint's last one.
 GROWTH = 4.0
 #: A bracket narrower than this (degrees) whose ends miss the force: the force jumps there.
@@ -109,6 +113,8 @@ class Drive:
         Why it stopped.
     unsettled : dict of float to str
         The angles whose frames did not settle, and why: their forces guide, never bracket.
+    lost : set of float
+        The angles whose frames settled with the free body not held: below the force.
     """
 
     joint: str
@@ -117,6 +123,7 @@ class Drive:
     converged: bool = False
     reason: str = ""
     unsettled: dict[float, str] = field(default_factory=dict)
+    lost: set[float] = field(default_factory=set)
     _side: int = 0  # Illinois: which end of the bracket was kept last, -1 low, +1 high
     _widths: list[float] = field(default_factory=list)  # the bracket's, step by step
     _start: int = 1  # the trials of the current search, the other joints held (from here)
@@ -129,8 +136,9 @@ class Drive:
 
     @property
     def reached(self) -> float:
-        """The force at the last angle (N)."""
-        return self.trials[-1][1]
+        """The force at the last angle (N); 0 where the body was not held there."""
+        a, f = self.trials[-1]
+        return 0.0 if a in self.lost else f
 
     def bracket(self) -> tuple[float | None, float | None]:
         """The largest angle solved whose force is below the target and the least above it.
@@ -144,8 +152,12 @@ class Drive:
         return (max(below) if below else None, min(above) if above else None)
 
     def settled(self) -> list[tuple[float, float]]:
-        """The current search's trials whose frames settled (the others held)."""
-        return [(a, f) for a, f in self.trials[self._start :] if a not in self.unsettled]
+        """The current search's trials whose frames settled, force 0 where not held."""
+        return [
+            (a, 0.0 if a in self.lost else f)
+            for a, f in self.trials[self._start :]
+            if a not in self.unsettled
+        ]
 
     @property
     def failed(self) -> bool:
@@ -173,6 +185,7 @@ class Drive:
             "converged": self.converged,
             "reason": self.reason,
             "unsettled": [[a, why] for a, why in self.unsettled.items()],
+            "not_held": sorted(self.lost),
         }
 
 
@@ -185,6 +198,8 @@ def _next(d: Drive, target: Target) -> float:
         # the last trial did not settle, and what settled is unchanged: go halfway back
         return 0.5 * (d.angle + _back(d))
     if lo is not None and hi is not None:
+        if lo in d.lost:  # no force there to interpolate: the edge of holding, bisected
+            return 0.5 * (lo + hi)
         flo, fhi = pts[lo] - target.force, pts[hi] - target.force
         # Illinois: halve the value kept at the end that did not move last time
         last = d.trials[-1][0]
@@ -233,6 +248,7 @@ def drive(
     pressed: Mapping[str, float],
     targets: Sequence[Target],
     max_steps: int = MAX_STEPS,
+    lost: Callable[[Any], bool] | None = None,
 ) -> tuple[Any, dict[str, float], dict[str, Drive]]:
     """Close the force-driven joints until each finger's force is its target.
 
@@ -249,6 +265,8 @@ def drive(
     targets : sequence of Target
     max_steps : int
         Solves before giving up.
+    lost : callable, optional
+        ``lost(result)``: the trial's free body is not held (below every force).
 
     Returns
     -------
@@ -266,21 +284,21 @@ def drive(
     result, forces, why = solve(dict(last))
     solves, budget = 1, max_steps * len(targets)
     failures = 1 if why else 0
-    for t in targets:
-        drives[t.joint].trials.append((last[t.joint], float(forces[t.joint])))
-        if why:
-            drives[t.joint].unsettled[last[t.joint]] = why
+    gone = _note(drives, targets, last, forces, why, result, lost)
     done: set[str] = set()  # joints stopped short (a limit, a jump)
+    jumps: dict[str, float] = {}  # a joint stopped by a jump: the angle below it
     while solves - failures < budget and failures < budget:
         off = [
             t for t in targets
-            if t.joint not in done and (why or not t.reached(forces[t.joint]))
+            if t.joint not in done and (why or gone or not t.reached(forces[t.joint]))
         ]  # fmt: skip
         if not off:
             break
         for t in off:
             d = drives[t.joint]
             d.restart(last[t.joint], float(forces[t.joint]))
+            if gone:
+                d.lost.add(last[t.joint])
             while solves - failures < budget and failures < budget and (
                 d.failed or not t.reached(d.reached)
             ):
@@ -288,6 +306,9 @@ def drive(
                 if stuck:
                     d.reason = stuck
                     done.add(t.joint)
+                    lo, hi = d.bracket()
+                    if lo is not None and hi is not None and hi - lo < ANGLE_RESOLUTION:
+                        jumps[t.joint] = lo
                     break
                 angles = {**last, t.joint: _next(d, t)}
                 again = _repeated(d, angles[t.joint])
@@ -302,10 +323,17 @@ def drive(
                 result, forces, why = solve(dict(angles))
                 solves += 1
                 last = angles
-                d.trials.append((last[t.joint], float(forces[t.joint])))
-                if why:
-                    d.unsettled[last[t.joint]] = why
-                    failures += 1
+                failures += bool(why)
+                gone = _note({t.joint: d}, [t], last, forces, why, result, lost)
+    if gone and not jumps:  # the edge of holding not found: end where it held, nearest
+        jumps = {t.joint: a for t in targets if (a := drives[t.joint].bracket()[1]) is not None}
+    if jumps and any(last[j] != a for j, a in jumps.items()):
+        # a force that jumps over its target: the frame ends below the jump, the grip it
+        # holds with no firmer than the one asked (or not held, where nothing below holds)
+        last = {**last, **jumps}
+        result, forces, why = solve(dict(last))
+        solves += 1
+        _note(drives, targets, last, forces, why, result, lost)
     for t in targets:
         d = drives[t.joint]
         d.final = d.bracket()  # its last search's, before the frame's own force is added
@@ -326,6 +354,27 @@ def drive(
                 f"{hi if hi is not None else '-'} deg)"
             )
     return result, last, drives
+
+
+def _note(
+    drives: dict[str, Drive],
+    targets: Sequence[Target],
+    angles: Mapping[str, float],
+    forces: Mapping[str, float],
+    why: str,
+    result: Any,
+    lost: Callable[[Any], bool] | None,
+) -> bool:
+    """Add one solve, at ``angles``, to every joint's trials; whether its body was lost."""
+    gone = not why and lost is not None and lost(result)
+    for t in targets:
+        d = drives[t.joint]
+        d.trials.append((angles[t.joint], float(forces[t.joint])))
+        if why:
+            d.unsettled[angles[t.joint]] = why
+        elif gone:
+            d.lost.add(angles[t.joint])
+    return gone
 
 
 def _repeated(d: Drive, angle: float) -> float | None:
@@ -365,10 +414,15 @@ def _stuck(d: Drive, t: Target) -> str:
         )
     if lo is not None and hi is not None and hi - lo < ANGLE_RESOLUTION:
         f = dict(d.trials[d._start :])
+        if lo in d.lost:
+            return (
+                f"{t.joint}: not held below {hi:.6g} deg, where it holds with {f[hi]:.4g} N "
+                f"on its finger: no angle holds with {t.force:.4g} N"
+            )
         return (
             f"{t.joint}: its finger's force jumps from {f[lo]:.4g} N to {f[hi]:.4g} N at "
-            f"{lo:.6g} deg (a node entering the contact): no angle gives {t.force:.4g} N "
-            f"within {100 * t.tolerance:g} %"
+            f"{lo:.6g} deg (a node entering the contact, or its stick and slip changing): "
+            f"no angle gives {t.force:.4g} N within {100 * t.tolerance:g} %"
         )
     if d.angle >= t.limit and d.reached < t.force:
         return (

@@ -365,7 +365,9 @@ class GraspRun:
 
         pressed = guess(self._fingers, t, angles, {**angles, **self._pressed}, targets)
         touching = dict(angles)
-        out, angles, drives = drive(trial, touching, pressed, targets)
+        out, angles, drives = drive(
+            trial, touching, pressed, targets, lost=lambda o: o[0].held is False
+        )
         remember(self._fingers, t, touching, drives)
         result, extra, planes, bodies = out
         result.timings["setup"] += posing
