@@ -79,13 +79,16 @@ def test_the_least_grip_grows_with_the_ball_s_mass(tmp_path: Path) -> None:
         summary = json.loads((out / "summary.json").read_text())
         grip = summary["least_grip"]
         lo, hi = grip["bracket"]
-        assert grip["found"] and lo < hi and (hi - lo) / hi <= 0.01
-        found[density] = grip["scale"]
-    ratio = found[2200.0] / found[1100.0]
-    assert ratio > 1.2  # the heavier ball needs the firmer grip
-    if not 1.8 <= ratio <= 2.2:  # friction-limited, it would double (the pads do)
+        assert lo < hi == grip["scale"]
+        found[density] = (grip["scale"], grip["found"], grip["limit"])
+    ratio = found[2200.0][0] / found[1100.0][0]
+    # ball and flesh neo-Hookean, the ball turns freely: friction carries its weight, and
+    # the least grip doubles with it (as the pads' does)
+    assert 1.8 <= ratio <= 2.2, ratio
+    if not all(f for _, f, _ in found.values()):
         pytest.xfail(
-            f"x{ratio:.2f}: the pinch's least grip is set by the ball's turn about the line "
-            "through the two pads past the linear model's limit, not by friction (see "
-            "benchmarks/README.md, holding)"
+            f"x{ratio:.2f}, limits {[lim for *_, lim in found.values()]}: below each answer "
+            "the index's search does not narrow the edge of holding to 0.01 degree in its "
+            "solves, and those trials say nothing (see benchmarks/README.md, holding)"
         )
+    assert {lim for *_, lim in found.values()} == {"friction"}
