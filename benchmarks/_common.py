@@ -37,10 +37,11 @@ __all__ = [
 MIB = 1024**2
 GIB = 1024**3
 
+
 def linear_flesh(scene: Any) -> Any:
     """``scene`` with its hand's flesh linear: the studies of the linear frame's cost.
 
-    The shipped hand examples' flesh is neo-Hookean (``benchmarks/finite.py`` measures it).
+    The shipped hand examples' flesh is neo-Hookean (``benchmarks/finite_example.py`` measures it).
     """
     if scene.hand is None:
         return scene
