@@ -226,7 +226,7 @@ def test_a_pinched_ball_its_weight_turns_past_friction_swings_until_friction_hol
     assert res.friction.stick == 0 and res.friction.max_cone_use == pytest.approx(1, abs=1e-8)
 
 
-@pytest.mark.parametrize("weight", [0.2, 0.4])
+@pytest.mark.parametrize("weight", [0.2, pytest.param(0.4, marks=pytest.mark.slow)])
 def test_a_round_off_change_of_the_offset_weight_leaves_the_turned_ball_as_it_was(weight):
     _, _, out = _offset_weight(weight)
     _, _, again = _offset_weight(weight, scale=1.0 + 1e-15)
