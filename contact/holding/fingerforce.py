@@ -286,7 +286,7 @@ def drive(
     failures = 1 if why else 0
     gone = _note(drives, targets, last, forces, why, result, lost)
     done: set[str] = set()  # joints stopped short (a limit, a jump)
-    jumps: dict[str, float] = {}  # a joint stopped by a jump: the angle below it
+    ends: dict[str, float] = {}  # where a joint stopped by a jump ends: the angle below it
     while solves - failures < budget and failures < budget:
         off = [
             t for t in targets
@@ -308,7 +308,7 @@ def drive(
                     done.add(t.joint)
                     lo, hi = d.bracket()
                     if lo is not None and hi is not None and hi - lo < ANGLE_RESOLUTION:
-                        jumps[t.joint] = lo
+                        ends[t.joint] = lo
                     break
                 angles = {**last, t.joint: _next(d, t)}
                 again = _repeated(d, angles[t.joint])
@@ -325,12 +325,12 @@ def drive(
                 last = angles
                 failures += bool(why)
                 gone = _note({t.joint: d}, [t], last, forces, why, result, lost)
-    if gone and not jumps:  # the edge of holding not found: end where it held, nearest
-        jumps = {t.joint: a for t in targets if (a := drives[t.joint].bracket()[1]) is not None}
-    if jumps and any(last[j] != a for j, a in jumps.items()):
-        # a force that jumps over its target: the frame ends below the jump, the grip it
-        # holds with no firmer than the one asked (or not held, where nothing below holds)
-        last = {**last, **jumps}
+    if gone and not ends:  # the edge of holding not found: end where it held, nearest
+        ends = {t.joint: a for t in targets if (a := drives[t.joint].bracket()[1]) is not None}
+    if ends and any(last[j] != a for j, a in ends.items()):
+        # solved again there, the run's history left as that trial's (below a jump: a grip
+        # no firmer than the one asked, or not held where nothing below holds)
+        last = {**last, **ends}
         result, forces, why = solve(dict(last))
         solves += 1
         _note(drives, targets, last, forces, why, result, lost)
