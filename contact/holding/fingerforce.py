@@ -10,10 +10,12 @@ geometry's angle, force 0: a guess, since the ball may have moved since it was
 measured), one solve. Then, in turn, each joint whose force is off is searched alone,
 the others held (one finger's force also moves the others' where they squeeze one free
 ball: in a pinch the thumb's force follows the index's, and one search does both): its
-press past first contact scaled as a Hertz contact's (``F ~ d^{3/2}``) to the target,
+press past first contact scaled as a Hertz contact's (``F ~ d^{3/2}``) to the target
+(from a trial at or below first contact, the body moved since: as far again toward it),
 then the secant through its last two trials while the force is below the target (the
 force is convex in the press, so the secant overshoots and brackets the root), limited
-to :data:`GROWTH` times the last step, and the Illinois variant of regula falsi once the
+to :data:`GROWTH` times the last step (above the target on a force flat within its
+tolerance, twice the last step back), and the Illinois variant of regula falsi once the
 root is bracketed, bisecting a bracket two steps did not halve. Turns repeat until every
 force is within its ``force_tolerance``, in at most :data:`MAX_STEPS` solves a joint that
 settle (and as many more that do not).
@@ -21,8 +23,10 @@ A joint stops short at its limit, or where its force jumps across the target wit
 :data:`ANGLE_RESOLUTION` (a node entering the contact, stick turning to slip): the frame
 then ends below the jump, its grip no firmer than the one asked. A trial whose free body
 is not held counts as below the force, whatever its fingers' forces (a moving body's): a
-finger closed less holds no better. So where the least angle that holds gives more than
-the target, the frame ends not held, next below it.
+finger closed less holds no better. So where the angles that hold give more than the
+target, the frame ends not held, at the angle below them that did not hold: once the held
+force's secant (convex, the force lies above it) stays above the target down to that
+angle, or within :data:`ANGLE_RESOLUTION` of one that held.
 
 A trial whose frame did not settle (Newton or friction stopped short, a linear ball
 turned past its bound) guides the next step but never brackets the root nor ends the
@@ -40,7 +44,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
 __all__ = [
     "ANGLE_RESOLUTION",
@@ -50,10 +53,6 @@ __all__ = [
     "Drive",
     "Target",
     "drive",
-    "finger_forces",
-    "force_targets",
-    "guess",
-    "remember",
 ]  # fmt: skip
 
 #: The first trial presses each force-driven finger this far (m) past first contact.
@@ -221,9 +220,13 @@ def _next(d: Drive, target: Target) -> float:
     guide = settled if len(settled) >= 2 else d.trials[d._start :]
     a1, f1 = guide[-1]
     if len(guide) == 1:
-        # one trial: its press past first contact scaled as a Hertz contact's, F ~ d^(3/2)
         a0 = d.trials[0][0]
-        step = max(a1 - a0, 1e-6)
+        step = a1 - a0
+        if step < ANGLE_RESOLUTION:  # at or below first contact (the body moved since it
+            # was measured): no press to scale; as far again toward the force
+            step = max(-step, ANGLE_RESOLUTION)
+            return min(a1 - step if f1 > target.force else a1 + step, target.limit)
+        # its press past first contact scaled as a Hertz contact's, F ~ d^(3/2)
         press = step * (target.force / f1) ** (2.0 / 3.0) if f1 > 0 else GROWTH * step
         return min(a0 + min(press, GROWTH * step), target.limit)
     a0, f0 = guide[-2]
@@ -235,7 +238,11 @@ def _next(d: Drive, target: Target) -> float:
         want = (target.force - f1) / slope if slope > 0 else grow
         return min(a1 + min(max(want, -grow), grow), target.limit)
     # every force solved above it (the finger pressed already at first contact): step back
-    # by the secant of the last two solves
+    # by the secant of the last two solves; where their forces differ by less than the
+    # tolerance (flat: the body gives way, or holds only past an edge) the secant says
+    # nothing, and the step back doubles
+    if abs(f1 - f0) <= target.tolerance * target.force:
+        return a1 - 2.0 * abs(step)
     first = abs(d.trials[1][0] - d.trials[0][0]) or 1.0
     slope = (f1 - f0) / step if step else 0.0
     back = (f1 - target.force) / slope if slope > 0 else GROWTH * abs(step)
@@ -302,13 +309,12 @@ def drive(
             while solves - failures < budget and failures < budget and (
                 d.failed or not t.reached(d.reached)
             ):
-                stuck = _stuck(d, t)
+                stuck, end = _stuck(d, t)
                 if stuck:
                     d.reason = stuck
                     done.add(t.joint)
-                    lo, hi = d.bracket()
-                    if lo is not None and hi is not None and hi - lo < ANGLE_RESOLUTION:
-                        ends[t.joint] = lo
+                    if end is not None:
+                        ends[t.joint] = end
                     break
                 angles = {**last, t.joint: _next(d, t)}
                 again = _repeated(d, angles[t.joint])
@@ -398,11 +404,12 @@ def _back(d: Drive) -> float:
     return lo if lo is not None else hi  # type: ignore[return-value]
 
 
-def _stuck(d: Drive, t: Target) -> str:
-    """Why a joint's search cannot go on, or "".
+def _stuck(d: Drive, t: Target) -> tuple[str, float | None]:
+    """Why a joint's search cannot go on ("" where it can), and where its frame then ends.
 
-    A limit reached short, a force that jumps, or a frame that does not settle within
-    :data:`ANGLE_RESOLUTION` of the last that did, toward the force.
+    A limit reached short, a force that jumps, the edge of holding found, or a frame that
+    does not settle within :data:`ANGLE_RESOLUTION` of the last that did, toward the force.
+    Below a jump or the edge of holding the frame ends at the bracket's low end.
     """
     lo, hi = d.bracket()
     if d.failed and d.settled() and abs(d.angle - _back(d)) < ANGLE_RESOLUTION:
@@ -411,90 +418,40 @@ def _stuck(d: Drive, t: Target) -> str:
             f"{t.joint}: the frames next to {a:.6g} deg ({dict(d.settled())[a]:.4g} N of "
             f"{t.force:.4g} N) did not settle (the solver's limit, not the finger's: "
             f"{d.unsettled[d.angle]})"
-        )
-    if lo is not None and hi is not None and hi - lo < ANGLE_RESOLUTION:
-        f = dict(d.trials[d._start :])
+        ), None
+    if lo is not None and hi is not None:
+        f = dict(d.settled())
         if lo in d.lost:
+            least = _least_held(d, lo, hi)
+            if hi - lo < ANGLE_RESOLUTION or least > t.force * (1 + t.tolerance):
+                between = f", at least {least:.4g} N where it holds between" if least > 0 else ""
+                return (
+                    f"{t.joint}: not held at {lo:.6g} deg, held at {hi:.6g} deg with "
+                    f"{f[hi]:.4g} N on its finger{between}: no angle holds with {t.force:.4g} N"
+                ), lo
+        elif hi - lo < ANGLE_RESOLUTION:
             return (
-                f"{t.joint}: not held below {hi:.6g} deg, where it holds with {f[hi]:.4g} N "
-                f"on its finger: no angle holds with {t.force:.4g} N"
-            )
-        return (
-            f"{t.joint}: its finger's force jumps from {f[lo]:.4g} N to {f[hi]:.4g} N at "
-            f"{lo:.6g} deg (a node entering the contact, or its stick and slip changing): "
-            f"no angle gives {t.force:.4g} N within {100 * t.tolerance:g} %"
-        )
+                f"{t.joint}: its finger's force jumps from {f[lo]:.4g} N to {f[hi]:.4g} N at "
+                f"{lo:.6g} deg (a node entering the contact, or its stick and slip changing): "
+                f"no angle gives {t.force:.4g} N within {100 * t.tolerance:g} %"
+            ), lo
     if d.angle >= t.limit and d.reached < t.force:
         return (
             f"{t.joint} reached its limit {t.limit:g} deg with {d.reached:.4g} N of "
             f"{t.force:.4g} N on its finger"
-        )
-    return ""
+        ), None
+    return "", None
 
 
-def finger_forces(
-    fields: Mapping[str, NDArray] | None, parts: NDArray[np.int64], targets: Sequence[Target]
-) -> dict[str, float]:
-    """Each target's finger: the sum of the hand's nodal normal contact forces on its part (N).
+def _least_held(d: Drive, lo: float, hi: float) -> float:
+    """The least force the finger can hold with between ``lo`` (not held) and ``hi``.
 
-    ``fields`` are the hand's contact fields (:attr:`FrameResult.contact_fields`), None
-    where it touches nothing; ``parts`` the hand part of every flesh node.
+    The force is convex and growing in the angle where the body is held, so it lies above
+    its secant through ``hi`` and the next angle that held, extended down to ``lo``
+    (no bound, -inf, where no other angle held).
     """
-    fn = np.zeros(parts.size) if fields is None else np.asarray(fields["normal_force"])
-    return {t.joint: float(fn[parts == t.part].sum()) for t in targets}
-
-
-#: What a run remembers of a frame's force-driven joints: (frame time, joint) ->
-#: (first contact's angle, the angle found, its force).
-Memory = dict[tuple[float, str], tuple[float, float, float]]
-
-
-def guess(
-    memory: Memory, t: float, touching: Mapping[str, float], pressed: Mapping[str, float],
-    targets: Sequence[Target],
-) -> dict[str, float]:
-    """The first trial's angles: where this frame's search ended last time, where it did.
-
-    A run that solves the frame again with other forces (``--least-grip``) starts each
-    joint at its last angle, its press past first contact scaled as a Hertz contact's
-    (``F ~ d^{3/2}``) to the new force; the others at :data:`FIRST_PRESS` (``pressed``).
-    """
-    out = dict(pressed)
-    for tg in targets:
-        last = memory.get((t, tg.joint))
-        if last is None or last[2] <= 0:
-            continue
-        a0, a, f = last
-        press = max(a - a0, 0.0) * (tg.force / f) ** (2.0 / 3.0)
-        out[tg.joint] = min(touching[tg.joint] + press, tg.limit)
-    return out
-
-
-def remember(
-    memory: Memory, t: float, touching: Mapping[str, float], drives: Mapping[str, Drive]
-) -> None:
-    """Keep each joint's first contact, angle found and force for the frame's next search."""
-    for j, d in drives.items():
-        memory[(t, j)] = (float(touching[j]), d.angle, d.reached)
-
-
-def force_targets(
-    hand: Any, flexions: Sequence[Any], pressed: Mapping[str, float], parts: Callable
-) -> list[Target]:
-    """The force-driven flexions among ``flexions`` (:class:`contact.scene.model.AutoFlex`).
-
-    Those whose joint reached first contact (``pressed``); each with its joint's upper
-    limit and the hand part of its point (``parts()``: the part of every flesh node).
-    """
-    out = []
-    limits = hand.skeleton.limits
-    for af in flexions:
-        if af.force is None or af.joint not in pressed:
-            continue
-        if isinstance(af.point, str):
-            part = hand.part_names.index(af.point)
-        else:
-            part = int(parts()[af.point])
-        lim = limits[af.joint][1]
-        out.append(Target(af.joint, float(af.force), af.force_tolerance, lim, part))
-    return out
+    held = sorted((a, f) for a, f in d.settled() if a >= hi and a not in d.lost)
+    if len(held) < 2:
+        return -np.inf
+    (a1, f1), (a2, f2) = held[:2]
+    return f1 - max((f2 - f1) / (a2 - a1), 0.0) * (hi - lo)

@@ -42,7 +42,8 @@ from ..hand.fingers import node_parts
 from ..hand.keyframes import Keyframes
 from ..hand.posing import HandPoser, Pose
 from ..hand.shipped import load_hand
-from ..holding.fingerforce import FIRST_PRESS, drive, finger_forces, force_targets, guess, remember
+from ..holding import fingertargets as ft
+from ..holding.fingerforce import FIRST_PRESS, drive
 from ..objects.ball import Ball, make_ball, nodal_pressure
 from ..objects.meshing import mesh_object
 from ..objects.placed import SceneObject, from_ball, from_scene, object_pairs
@@ -345,9 +346,8 @@ class GraspRun:
         t0 = time.perf_counter()
         angles = self.angles(t) if self.hand is not None else {}
         posing = time.perf_counter() - t0  # set-up too: the automatic flexions' search
-        targets = [] if self.hand is None else force_targets(
-            self.hand, self._flexions(t), self._pressed, self._parts
-        )  # fmt: skip
+        h = self.hand
+        targets = ft.force_targets(h, self._flexions(t), self._pressed, self._parts) if h else []
         if not targets:
             out = solve_rolled(self, t, angles, callback)
             out[0].timings["setup"] += posing
@@ -359,16 +359,16 @@ class GraspRun:
             self.restore(kept)
             out = solve_rolled(self, t, pose, callback)
             res = out[0]
-            forces = finger_forces(res.contact_fields.get("hand"), self._parts(), targets)
+            forces = ft.finger_forces(res.contact_fields.get("hand"), self._parts(), targets)
             # a ball not held is an outcome; a frame stopped short says little of the force
             return out, forces, "" if res.converged or res.held is False else res.stop_reason
 
-        pressed = guess(self._fingers, t, angles, {**angles, **self._pressed}, targets)
+        pressed = ft.guess(self._fingers, t, angles, {**angles, **self._pressed}, targets)
         touching = dict(angles)
         out, angles, drives = drive(
             trial, touching, pressed, targets, lost=lambda o: o[0].held is False
         )
-        remember(self._fingers, t, touching, drives)
+        ft.remember(self._fingers, t, touching, drives)
         result, extra, planes, bodies = out
         result.timings["setup"] += posing
         for j, d in drives.items():
