@@ -26,6 +26,7 @@ from contact.holding.leastgrip import (
 from contact.holding.leastgrip import search as grip_search
 from contact.run import GraspRun
 from contact.scene.read import load_scene
+from tests.helpers import example
 
 PADS = """
 [scene]
@@ -281,6 +282,17 @@ def test_grip_scaled_scales_only_force_driven_planes(tmp_path: Path) -> None:
     assert scaled.grip == {"left_pad": 0.5}
     assert scaled.ball == scene.ball and scaled.frames == scene.frames
     assert scene.planes[0].force == ((0.0, 1.0), (2.0, 2.0))  # the original is untouched
+
+
+def test_a_fingers_force_at_a_frame_is_its_flexion_s_there(tmp_path: Path) -> None:
+    # the pinch's index presses 0.3 N at t = 0.5 and 0.6 N at t = 1 (two flexions)
+    path = tmp_path / "pinch.toml"
+    path.write_text(example("pinch"))
+    scene = load_scene(path)
+    assert scene.grip == {"index_pip": 0.6}
+    assert scene.grip_at(0.5) == {"index_pip": 0.3}
+    assert scene.grip_at(1.0) == {"index_pip": 0.6}
+    assert scene.grip_at(0.75) == {"index_pip": 0.0}
 
 
 @pytest.mark.parametrize(

@@ -204,7 +204,7 @@ class GraspRun:
         return [
             af
             for af in self.scene.hand.auto_flexion  # type: ignore[union-attr]
-            if af.times is None or any(abs(t - s) <= 1e-12 for s in af.times)
+            if af.applies(t)
         ]
 
     def placement(self, obj: SceneObject, t: float) -> NDArray[np.float64]:

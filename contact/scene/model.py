@@ -153,6 +153,10 @@ class AutoFlex:
         if not 0 < self.force_tolerance <= 0.5:
             raise invalid("force_tolerance", self.force_tolerance, "must lie in (0, 0.5]")
 
+    def applies(self, t: float) -> bool:
+        """Whether it applies at frame time ``t`` (every frame where ``times`` is None)."""
+        return self.times is None or any(abs(t - s) <= 1e-12 for s in self.times)
+
 
 @dataclass(frozen=True)
 class HandScene:

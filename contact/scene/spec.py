@@ -213,11 +213,14 @@ class Scene:
         return peaks
 
     def grip_at(self, time: float) -> dict[str, float]:
-        """Each force-driven element's own force (N) at ``time``, by name (as :attr:`grip`)."""
+        """Each force-driven element's own force (N) at ``time``, by name (as :attr:`grip`).
+
+        A finger's is that of its flexion applying at ``time``, 0 where none does.
+        """
         out = {p.name: p.force_at(time) for p in self.planes if p.driven}
         for a in self.hand.auto_flexion if self.hand is not None else ():
             if a.force is not None:
-                out[a.joint] = max(out.get(a.joint, 0.0), a.force)
+                out[a.joint] = max(out.get(a.joint, 0.0), a.force if a.applies(time) else 0.0)
         return out
 
     def grip_scaled(self, s: float) -> Scene:
