@@ -253,6 +253,17 @@ def test_a_flat_force_above_the_target_finds_the_edge_of_holding_in_the_budget()
     lo, hi = d.final
     assert lo == angles["j"] < 37.3 <= hi and hi < 39.0 and lo in d.lost
     assert "at least 1.099 N where it holds between" in d.reason
+    # a round-off change of the forces and the first contact leaves the verdict
+    for eps in (1e-15, -1e-15):
+
+        def twin(angles, e=eps):
+            held, force = _pinch_edge(angles["j"])
+            return held, {"j": force * (1 + e)}, ""
+
+        again, _, drives = drive(
+            twin, {"j": 39.0 * (1 + eps)}, {"j": 40.1}, [target], lost=lambda held: not held
+        )
+        assert again is False and drives["j"].reason.split(" deg")[0] == d.reason.split(" deg")[0]
 
 
 def test_a_frame_solved_again_starts_where_it_ended_below_first_contact() -> None:
