@@ -9,7 +9,9 @@ when every frame converged with every bone under its limit, 1 when a frame did n
 converge, a bone passed its limit or a free body is not held (everything is still written;
 stderr names each such frame and why, unless ``--quiet``; the run stops at the first frame
 not held, the frames after it reported as not solved: :mod:`contact.app.unheld`), 2 for bad
-input (one line on stderr naming the file, key or element; nothing written), 3 for an
+input (one line on stderr naming the file, key or element; nothing written, except where a
+later frame cannot be set up where the motion brought it: the frames solved are written,
+that one and those after it reported as not solved), 3 for an
 internal error (one line naming the exception and a log file holding its traceback), 4 for
 an I/O failure (a folder that cannot be written, a full disk, a race lost to another run),
 130 and 143 when interrupted by SIGINT (Ctrl-C) and SIGTERM (one line; the staging folder
@@ -76,7 +78,7 @@ EXIT_STATUS = (
     "not converge, a bone passed its limit or a free body is not held (results are still "
     "written; stderr names the frames and why, unless --quiet; the run stops at the first "
     "frame not held, the later frames reported as not solved); 2 bad input (one line; "
-    "nothing written); "
+    "nothing written, or, where a later frame cannot be set up, the frames before it); "
     "3 an internal error (one line and the path of a log file with its traceback); 4 an "
     "I/O failure (a folder that cannot be written, a full disk, a race lost to another "
     "run; the previous results untouched); 130 / 143 interrupted by SIGINT / SIGTERM "
@@ -181,6 +183,7 @@ def run(
     results: list[FrameResult] = []
     found = None
     unsolved: list[dict] = []
+    failed: Exception | None = None  # why a later frame could not be set up
     try:
         run_ = GraspRun(scene)
         hand_labels: dict = {}
@@ -201,7 +204,18 @@ def run(
                     iteration=rec.iteration, change=f"{rec.max_change:.2e}", refresh=True
                 )
 
-            result, extra, planes, frame_bodies = run_.frame(t, tell)
+            try:
+                result, extra, planes, frame_bodies = run_.frame(t, tell)
+            except OutputError:
+                raise
+            except (ContactError, fem.FemError) as exc:
+                if not results:
+                    raise  # the scene's own start: nothing solved to keep
+                # the motion brought the run where it cannot go on: what it solved is kept
+                status, failed = 2, exc
+                rest = [(j, times[j]) for j in solved[k:] if j in chosen]
+                unsolved = unheld.cannot_set_up(t, exc, rest)
+                break
             results.append(result)
             gone = unheld.lost(result)
             if gone:  # no defined state to go on from: the run stops here (contact.app.unheld)
@@ -242,7 +256,7 @@ def run(
             bar.update(1)
             if gone:
                 break
-        if least:
+        if least and failed is None:
             found = _least_grip(run_, times, results, bar, quiet)
         check_terminated()
         writer.finish(scene.echo(), versions=versions())
@@ -265,6 +279,8 @@ def run(
         bar.close()
         raise
     bar.close()
+    if failed is not None:
+        print(f"error: {scene.path}: {failed}", file=sys.stderr)
     if not quiet:
         if unsolved:
             print(unheld.not_solved_line(unsolved), flush=True)

@@ -129,3 +129,40 @@ def test_the_records_and_lines_of_frames_not_solved():
     end = parse_line(closing_line([entry], "out dir", recs))
     assert tuple(end) == SUMMARY_KEYS
     assert (end["verdict"], end["results"], end["frames"]) == ("unrealistic", "out dir", "1")
+
+
+def test_a_later_frame_that_cannot_be_set_up_keeps_the_frames_before(
+    tmp_path, capsys, monkeypatch
+):
+    # the motion brings the run where a frame cannot be set up (a bone the keyframes close
+    # through where the ball went): exit 2, what was solved is written, the rest not solved
+    from contact.errors import InputError
+
+    frame = contact.run.GraspRun.frame
+
+    def closing_through(self, t, callback=None):
+        if t == 0.5:
+            raise InputError("frame t = 0.5: the ball starts inside bone index_distal")
+        return frame(self, t, callback)
+
+    monkeypatch.setattr(contact.run.GraspRun, "frame", closing_through)
+    path, out = scene(tmp_path)
+    assert main([str(path), "--no-pictures"]) == 2
+    summary = json.loads((out / "summary.json").read_text())
+    assert [f["index"] for f in summary["frames"]] == [0]
+    assert not summary["all_converged"] and not summary["all_realistic"]
+    assert [(r["index"], r["time"]) for r in summary["not_solved"]] == [(1, 0.5), (2, 1.0)]
+    why = summary["not_solved"][0]["reason"]
+    assert why.startswith("not solved: the frame at t = 0.5 could not be set up: ")
+    std = capsys.readouterr()
+    assert parse_line(std.out.strip().splitlines()[-1])["verdict"] == "unrealistic"
+    err = std.err.strip().splitlines()
+    assert err[0] == f"error: {path}: frame t = 0.5: the ball starts inside bone index_distal"
+    assert "Traceback" not in std.err and err[-1] == f"results in {out}"
+    # at the first frame it is the scene's own bad input: nothing written
+    monkeypatch.setattr(
+        contact.run.GraspRun, "frame", lambda self, t, callback=None: closing_through(self, 0.5)
+    )
+    out.rename(tmp_path / "kept")
+    assert main([str(path), "--no-pictures"]) == 2
+    assert not out.exists()

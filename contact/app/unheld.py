@@ -7,6 +7,9 @@ status 1, everything solved so far written), and the frames asked for after it a
 reported as not solved, with why: under ``"not_solved"`` in ``summary.json``
 (:func:`add_not_solved`), in one stdout line (:func:`not_solved_line`), on stderr
 (:func:`not_solved_message`), and in the closing line's verdict (:func:`closing_line`).
+A later frame that cannot be set up (a bone the keyframes close through where the ball
+went) stops the run the same way, its own frame first among those not solved
+(:func:`cannot_set_up`, exit status 2).
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from .report import SUMMARY_KEYS, parse_line, summary_line
 __all__ = [
     "NOT_SOLVED_KEYS",
     "add_not_solved",
+    "cannot_set_up",
     "closing_line",
     "lost",
     "not_solved",
@@ -64,6 +68,17 @@ def not_solved(
         f"stopped: {result.stop_reason}"
     )
     return [{"index": int(i), "time": float(t), "reason": why} for i, t in rest]
+
+
+def cannot_set_up(
+    time: float, error: Exception, frames: Sequence[tuple[int, float]]
+) -> list[dict[str, Any]]:
+    """The records of the frames left unsolved where the frame at ``time`` could not be set up.
+
+    ``frames``: that frame and those asked for after it (index, time); ``error`` why.
+    """
+    why = f"not solved: the frame at t = {time:g} could not be set up: {error}"
+    return [{"index": int(i), "time": float(t), "reason": why} for i, t in frames]
 
 
 def add_not_solved(path: str | Path, records: Sequence[Mapping[str, Any]]) -> None:
