@@ -149,6 +149,9 @@ def run(quick: bool = False, out: str | Path | None = None) -> list[dict]:
         table = markdown_table(example, EXAMPLE_COLUMNS)
         sections.append(("The README example", table + "\n\n" + example_section(example)))
         for row in example[1:]:
+            if row["frame_s"] is None or example[0]["frame_s"] is None:
+                print(f"[finite] README example: {row['model']}: {row.get('error')}", flush=True)
+                continue
             print(f"[finite] README example t = 1: {row['model']} / linear "
                   f"x{row['frame_s'] / example[0]['frame_s']:.1f}", flush=True)
     write_markdown(

@@ -16,6 +16,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from contact.errors import ContactError
 from contact.output import summary
 from contact.run import GraspRun
 from contact.scene import load_scene
@@ -61,11 +62,16 @@ def _closing_frame(text: str, folder: Path, name: str) -> dict:
     path.write_text(text.replace('directory = "results/grasp"', f'directory = "{folder}"'))
     scene = load_scene(path)
     run = GraspRun(scene)
-    for t in scene.frames:
-        if t < FRAME:
-            run.frame(t)
     t0 = time.perf_counter()
-    res, extra, _, _ = run.frame(FRAME)
+    try:
+        for t in scene.frames:
+            if t < FRAME:
+                run.frame(t)
+        t0 = time.perf_counter()
+        res, extra, _, _ = run.frame(FRAME)
+    except ContactError as exc:  # a frame the run could not set up: said, not timed
+        return {"model": name, "frame_s": None, "newton_steps": "-", "converged": False,
+                "held": None, "grip_n": None, "error": str(exc)}  # fmt: skip
     seconds = time.perf_counter() - t0
     newton = extra.get("newton", {})
     grip = summary.grip_force(res, "hand")
@@ -99,6 +105,9 @@ def example_section(rows: list[dict]) -> str:
     """The goal lines under the table."""
     lines = []
     for row in rows[1:]:
+        if row["frame_s"] is None or rows[0]["frame_s"] is None:
+            lines.append(f"{row['model']}: not run to t = 1 ({row.get('error', '')})")
+            continue
         ratio = row["frame_s"] / rows[0]["frame_s"]
         verdict = "met" if ratio <= GOAL else "MISSED"
         lines.append(f"{row['model']} / linear {ratio:.1f}x: {verdict}")
@@ -107,7 +116,7 @@ def example_section(rows: list[dict]) -> str:
         f"the frames before it, against the goal of {GOAL:g}x: {'; '.join(lines)}. The "
         "linear frame factors each body once; each Newton step assembles and factors the "
         "tangent anew and solves a whole linear frame. The free neo-Hookean ball is solved "
-        "with its turn stiffness (fem.TurningInverse); its pressurised wall's tangent, with "
-        "six DOFs held, cannot be factored once squeezed, those steps take the material "
-        "tangent, and its frame is cut back in two."
+        "with its turn stiffness (fem.TurningInverse), free to roll: where the frames "
+        "before t = 1 roll it from its pole onto a facet, the keyframes may close a bone "
+        "through where it went, and that frame cannot be set up."
     )
