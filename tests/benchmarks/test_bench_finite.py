@@ -32,3 +32,19 @@ def test_the_readme_example_gets_the_models_asked_on_its_ball_and_flesh_only():
         assert f'model = "{ball}" }}' in lines[0] and f'model = "{flesh}" }}' in lines[1]
     with pytest.raises(RuntimeError, match="material table"):
         _models("[ball]\nradius = 0.03\n", "linear", "linear")
+
+
+def test_a_readme_row_not_run_to_its_frame_says_why(tmp_path, monkeypatch):
+    from benchmarks import finite_example
+    from contact.errors import InputError
+
+    def refused(self, t, callback=None):
+        raise InputError(f"frame t = {t:g}: the ball starts inside bone little_distal")
+
+    monkeypatch.setattr(finite_example.GraspRun, "frame", refused)
+    text = finite_example._models(finite_example.EXAMPLE.read_text(), "linear", "linear")
+    row = finite_example._closing_frame(text, tmp_path, "neo-hookean flesh and ball")
+    assert row["frame_s"] is None and row["converged"] is False
+    assert row["error"] == "frame t = 0: the ball starts inside bone little_distal"
+    line = finite_example.example_section([{"frame_s": 1.0}, row])
+    assert "neo-hookean flesh and ball: not run to t = 1 (frame t = 0: the ball" in line
