@@ -24,12 +24,12 @@ __all__ = [
     "Column",
     "Measurement",
     "PeakMemory",
-    "linear_flesh",
     "load_average",
     "machine_info",
     "measure",
     "plot_loglog",
     "results_dir",
+    "with_models",
     "write_csv",
     "write_markdown",
 ]
@@ -38,15 +38,17 @@ MIB = 1024**2
 GIB = 1024**3
 
 
-def linear_flesh(scene: Any) -> Any:
-    """``scene`` with its hand's flesh linear: the studies of the linear frame's cost.
+def with_models(scene: Any, flesh: str, ball: str | None = None) -> Any:
+    """``scene`` with its hand's flesh (and its ball, where given) of material ``model``.
 
-    The shipped hand examples' flesh is neo-Hookean (``benchmarks/finite_example.py`` measures it).
+    The studies of the linear frame's cost take the flesh ``"linear"``: the shipped hand
+    examples' is neo-Hookean (``benchmarks/finite_example.py`` measures it).
     """
+    if ball is not None and scene.ball is not None:
+        scene = replace(scene, ball=replace(scene.ball, model=ball))
     if scene.hand is None:
         return scene
-    flesh = replace(scene.hand.flesh, model="linear")
-    return replace(scene, hand=replace(scene.hand, flesh=flesh))
+    return replace(scene, hand=replace(scene.hand, flesh=replace(scene.hand.flesh, model=flesh)))
 
 
 #: Where full runs write their results.

@@ -62,7 +62,6 @@ def _closing_frame(text: str, folder: Path, name: str) -> dict:
     path.write_text(text.replace('directory = "results/grasp"', f'directory = "{folder}"'))
     scene = load_scene(path)
     run = GraspRun(scene)
-    t0 = time.perf_counter()
     try:
         for t in scene.frames:
             if t < FRAME:

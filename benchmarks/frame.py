@@ -33,11 +33,11 @@ from contact.solver.results import FrameResult
 
 from ._common import (
     Column,
-    linear_flesh,
     load_average,
     machine_info,
     markdown_table,
     results_dir,
+    with_models,
     write_csv,
     write_markdown,
 )
@@ -225,7 +225,7 @@ def _example_rows(repeat: int = REPEAT) -> list[dict]:
     path = Path(__file__).resolve().parents[1] / "examples" / "bowl.toml"
     best: list[dict] = []
     for _ in range(repeat):
-        run = GraspRun(linear_flesh(load_scene(path)))
+        run = GraspRun(with_models(load_scene(path), "linear"))
         rows = []
         for i, t in enumerate(run.scene.frames):
             # the frame's bodies and their solver counts before solving it

@@ -21,7 +21,7 @@ from contact.solver import ContactSettings, coulomb, delassus, solve_frame, tang
 from contact.solver.pairs import ContactPair
 from contact.solver.results import FrameResult
 
-from ._common import linear_flesh
+from ._common import with_models
 from .scenes import REFINEMENTS, CupLevel, hand_body, hand_cup
 
 __all__ = [
@@ -235,7 +235,7 @@ def _example_rows(quick: bool) -> list[dict]:
     """The bowl example's frames, frictionless and with ``[hand] friction = 0.5``."""
     from contact.scene.read import load_scene
 
-    sc = linear_flesh(load_scene(EXAMPLES / "bowl.toml"))
+    sc = with_models(load_scene(EXAMPLES / "bowl.toml"), "linear")
     assert sc.hand is not None
     fric_sc = dataclasses.replace(sc, hand=dataclasses.replace(sc.hand, friction=MU))
     free = _best_sequence(sc, REPEAT[quick])

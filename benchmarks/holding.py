@@ -27,7 +27,15 @@ from contact.holding.leastgrip import judge, least_grip
 from contact.run import GraspRun
 from contact.scene.read import load_scene
 
-from ._common import Column, machine_info, markdown_table, results_dir, write_csv, write_markdown
+from ._common import (
+    Column,
+    machine_info,
+    markdown_table,
+    results_dir,
+    with_models,
+    write_csv,
+    write_markdown,
+)
 
 __all__ = ["run"]
 
@@ -108,13 +116,7 @@ def _pinch(finite: bool) -> list[dict[str, Any]]:
     scene = load_scene(EXAMPLES / "pinch.toml")
     name = "hand pinch, neo-Hookean" if finite else "hand pinch"
     model = "neo-hookean" if finite else "linear"
-    scene = dataclasses.replace(
-        scene,
-        ball=dataclasses.replace(scene.ball, model=model),
-        hand=dataclasses.replace(
-            scene.hand, flesh=dataclasses.replace(scene.hand.flesh, model=model)
-        ),
-    )
+    scene = with_models(scene, flesh=model, ball=model)
     rows = [_search(scene, name, "its own ball")]
     heavy = dataclasses.replace(
         scene, ball=dataclasses.replace(scene.ball, density=2.0 * scene.ball.density)

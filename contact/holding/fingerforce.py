@@ -293,7 +293,7 @@ def drive(
     failures = 1 if why else 0
     gone = _note(drives, targets, last, forces, why, result, lost)
     done: set[str] = set()  # joints stopped short (a limit, a jump)
-    ends: dict[str, float] = {}  # where a joint stopped by a jump ends: the angle below it
+    ends: dict[str, float] = {}  # where a joint stopped ends: below a jump, an edge of holding
     while solves - failures < budget and failures < budget:
         off = [
             t for t in targets
