@@ -331,7 +331,8 @@ class ContactSet:
     ) -> tuple[ContactRows, int, float]:
         """New mortar rows of pair ``i``: weighted gaps closed or below the tolerance."""
         pair, cand = self.frame.pairs[i], self.frame.mortar[i]
-        g = cand.gaps(u[pair.slave.name], u[pair.master.name])  # type: ignore[union-attr]
+        u_m = np.zeros(0) if pair.rigid else u[pair.master.name]  # type: ignore[union-attr]
+        g = cand.gaps(u[pair.slave.name], u_m)
         nodes = cand.rows.node
         tol = self.frame.tol(pair, nodes)
         fresh = ~np.isin(nodes, rows.node[rows.pair == i]) & ~np.isin(

@@ -55,7 +55,9 @@ class ContactPair:
     master : ElasticBody or Plane
         The obstacle.
     mortar : bool
-        Mortar rows (a deformable master only) instead of node-to-surface rows.
+        Weighted (mortar) rows instead of node-to-surface rows: against a body
+        (:mod:`contact.solver.mortar`) or a plane that is not force-driven
+        (:mod:`contact.solver.planemortar`); frictionless only.
     friction : float
         Coulomb's coefficient ``mu >= 0`` of the pair (0: frictionless).
     """
@@ -71,8 +73,8 @@ class ContactPair:
             raise ValueError(f"{self.name}: friction = {mu!r} must be a finite number >= 0")
         if mu and self.mortar:
             raise ValueError(f"{self.name}: mortar rows take no friction")
-        if self.mortar and isinstance(self.master, Plane):
-            raise ValueError(f"{self.name}: mortar rows need a deformable master, not a plane")
+        if self.mortar and isinstance(self.master, Plane) and self.master.force is not None:
+            raise ValueError(f"{self.name}: mortar rows need a plane that is not force-driven")
 
     @property
     def name(self) -> str:

@@ -22,6 +22,7 @@ from ..geometry.plane import Plane
 from .body import ElasticBody
 from .mortar import mortar_coupling
 from .pairs import ContactPair, Penetrations
+from .planemortar import plane_rows
 
 __all__ = ["ContactRows", "MortarCandidates", "mortar_candidates"]
 
@@ -215,9 +216,15 @@ def _padded(a: sp.csr_matrix, scale: NDArray[np.float64]) -> tuple[NDArray, NDAr
 
 
 def mortar_candidates(pair: ContactPair, index: int, search: float) -> MortarCandidates:
-    """The mortar rows of a body pair (:mod:`contact.solver.mortar`), one per covered slave node."""
+    """The mortar rows of a pair, one per covered slave node.
+
+    Against a body :mod:`contact.solver.mortar`'s; against a plane
+    :mod:`contact.solver.planemortar`'s, on the slave's smoothed surface, the plane where
+    the frame places it.
+    """
     slave, master = pair.slave, pair.master
-    assert isinstance(master, ElasticBody)
+    if isinstance(master, Plane):
+        return _plane_candidates(slave, master, index)
     c = mortar_coupling(
         slave.mesh.points,
         slave.contact_faces.faces,
@@ -241,3 +248,23 @@ def mortar_candidates(pair: ContactPair, index: int, search: float) -> MortarCan
     )
     e_s, e_m = c.rows(slave.mesh.n_points, master.mesh.n_points)
     return MortarCandidates(rows, e_s.tocsr(), e_m.tocsr(), c.area.copy())
+
+
+def _plane_candidates(slave: ElasticBody, plane: Plane, index: int) -> MortarCandidates:
+    """The weighted rows of ``slave``'s contact faces against ``plane``."""
+    c = plane_rows(slave.mesh.points, slave.contact_faces.faces, plane)
+    k = len(c)
+    s_nodes, s_coef = _padded(c.d, 1.0 / c.area)
+    rows = ContactRows(
+        np.full(k, index, np.int64),
+        c.nodes.copy(),
+        np.broadcast_to(plane.normal, (k, 3)).copy(),
+        c.gap0.copy(),
+        s_nodes,
+        s_coef,
+        np.full((k, 0), -1, np.int64),
+        np.zeros((k, 0)),
+    )
+    scaled = sp.diags(1.0 / c.area) @ c.d if k else c.d
+    e_s = sp.kron(scaled, plane.normal[None, :], format="csr")
+    return MortarCandidates(rows, e_s, sp.csr_matrix((k, 0)), c.area.copy())

@@ -1,0 +1,150 @@
+"""Weighted (mortar) gaps against a plane: flat faces exact, curved ones smoothed, the patch
+test passed, and Hertz between plates on coarse bricks (contact.solver.planemortar)."""
+
+import numpy as np
+import pytest
+
+import fem
+from contact.geometry.plane import Plane
+from contact.solver import solve_frame
+from contact.solver.body import ElasticBody
+from contact.solver.pairs import ContactPair
+from contact.solver.planemortar import corner_normals, plane_rows
+
+E, NU = 1.0e6, 0.45
+
+
+def _outward(points, faces):
+    out = {}
+    for k, f in faces.items():
+        x = points[f]
+        c = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
+        out[k] = c / np.linalg.norm(c, axis=1)[:, None]
+    return out
+
+
+@pytest.mark.parametrize("element", ["hexahedron", "tetra"])
+def test_a_block_s_flat_faces_keep_their_normals_and_their_nodal_gaps(element):
+    mesh = fem.box_mesh((0.03, 0.02, 0.01), (3, 2, 2), (0.0, 0.0, 0.001), element=element)
+    faces = mesh.boundary.faces
+    own = _outward(mesh.points, faces)
+    for k, n in corner_normals(mesh.points, faces).items():
+        # every corner of a face on the block's edges keeps the face's own normal
+        assert np.abs(n - own[k][:, None, :]).max() < 1e-12
+    rows = plane_rows(mesh.points, faces, Plane((0, 0, 0), (0, 0, 1)))
+    bottom = np.flatnonzero(np.isclose(mesh.points[:, 2], 0.001))
+    assert np.array_equal(rows.nodes, bottom)  # only the face that faces the plane
+    assert rows.gap0 == pytest.approx(np.full(bottom.size, 0.001), abs=1e-15)
+    assert rows.area.sum() == pytest.approx(0.03 * 0.02, rel=1e-12)
+    assert np.asarray(rows.d.sum(axis=1)).ravel() == pytest.approx(rows.area, rel=1e-12)
+
+
+def test_a_ball_s_weighted_gaps_are_its_curved_surface_s():
+    r = 0.02
+    mesh = fem.ball_mesh(r, divisions=8, layers=4)
+    faces = mesh.boundary.faces
+    plane = Plane((0, 0, -r), (0, 0, 1))
+    rows = plane_rows(mesh.points, faces, plane)
+    pole = int(np.argmin(mesh.points[:, 2]))
+    i = int(np.searchsorted(rows.nodes, pole))
+    assert rows.nodes[i] == pole and mesh.points[pole, 2] == pytest.approx(-r)
+    # the same weights on the flat facets (the nodal gaps interpolated), and on the sphere
+    flat = (rows.d[i] @ plane.signed_distance(mesh.points))[0] / rows.area[i]
+    nodes = rows.d[i].indices
+    rho = np.hypot(*mesh.points[nodes, :2].T)
+    # the sphere under the node's faces: about the gap of the flat facets less their sagitta
+    exact_nodal = r - np.sqrt(r**2 - rho**2)
+    assert np.allclose(plane.signed_distance(mesh.points[nodes]), exact_nodal, atol=1e-12)
+    h = float(np.max(rho))
+    sagitta = h**2 / (8 * r)
+    assert flat - rows.gap0[i] > 0.1 * sagitta  # the flat facets lie inside the sphere
+    # on the sphere the N-weighted mean of r - sqrt(r^2 - rho^2) about the pole is below
+    # the flat facets' by the weighted sagitta: the smoothed surface within 20 % of it
+    sphere = _sphere_weighted_gap(mesh, faces, rows, i, r, plane)
+    assert abs(rows.gap0[i] - sphere) < 0.2 * abs(flat - sphere)
+
+
+def _sphere_weighted_gap(mesh, faces, rows, i, r, plane):
+    """Node ``i``'s weighted gap with each quadrature point moved radially onto the sphere."""
+    g3 = np.array([-np.sqrt(0.6), 0.0, np.sqrt(0.6)])
+    w3 = np.array([5 / 9, 8 / 9, 5 / 9])
+    node = rows.nodes[i]
+    num = den = 0.0
+    for f in faces["quad"]:
+        if node not in f:
+            continue
+        x = mesh.points[f]
+        if np.cross(x[2] - x[0], x[3] - x[1]) @ plane.normal >= 0:
+            continue
+        k = int(np.flatnonzero(f == node)[0])
+        for a, wa in zip(g3, w3, strict=True):
+            for b, wb in zip(g3, w3, strict=True):
+                sa, sb = np.array([-1, 1, 1, -1]), np.array([-1, -1, 1, 1])
+                n = 0.25 * (1 + sa * a) * (1 + sb * b)
+                da, db = 0.25 * sa * (1 + sb * b), 0.25 * sb * (1 + sa * a)
+                jw = np.linalg.norm(np.cross(da @ x, db @ x)) * wa * wb
+                q = n @ x
+                on = q / np.linalg.norm(q) * r
+                num += jw * n[k] * plane.signed_distance(on[None])[0]
+                den += jw * n[k]
+    return num / den
+
+
+def _pressed_block(element):
+    """A block on rollers (z held at its base, one corner pinned, one edge held in y)."""
+    mesh = fem.box_mesh((0.02, 0.02, 0.01), (4, 3, 2), (0.0, 0.0, 0.0), element=element)
+    x = mesh.points
+    base = np.flatnonzero(np.isclose(x[:, 2], 0.0))
+    corner = base[np.argmin(np.linalg.norm(x[base], axis=1))]
+    edge = base[np.isclose(x[base, 1], 0.0)]
+    held = np.unique(np.concatenate([
+        fem.node_dofs(base, [2]), fem.node_dofs([corner], [0, 1]), fem.node_dofs(edge, [1]),
+    ]))  # fmt: skip
+    return ElasticBody("block", mesh, fem.LinearElastic(E, NU), prescribed=held)
+
+
+@pytest.mark.parametrize("element", ["hexahedron", "tetra"])
+def test_a_plane_pressing_a_block_with_weighted_rows_passes_the_patch_test(element):
+    block = _pressed_block(element)
+    d = 1.0e-4  # 1 % of the block's height
+    plate = Plane((0, 0, 0.01), (0, 0, -1), motion=(0, 0, -d), name="plate")
+    res = solve_frame([block], [ContactPair(block, plate, mortar=True)], [plate])
+    assert res.converged, res.stop_reason
+    p = E * d / 0.01  # uniaxial stress: the sides are free
+    for sigma in fem.cell_stress(block.mesh, block.materials,
+                                 res.displacement["block"].ravel()).values():  # fmt: skip
+        expected = np.zeros((3, 3))
+        expected[2, 2] = -p
+        assert np.abs(sigma - expected).max() <= 1e-8 * p
+    # action equals reaction, and the plate carries the pressure over the whole face
+    f_plate = res.obstacle_forces["plate"]
+    assert f_plate[2] == pytest.approx(p * 0.02 * 0.02, rel=1e-10)
+    assert np.abs(f_plate + res.total_contact_force("block")).max() <= 1e-10 * p * 4e-4
+    assert (res.contacts["force"] > 0).all()
+
+
+def _hertz(d):
+    """Each contact's force (N) of a ball pressed between plates by ``d`` in all (m)."""
+    return 4 / 3 * E / (1 - NU**2) * np.sqrt(0.02) * (d / 2) ** 1.5
+
+
+@pytest.mark.parametrize(("size", "press", "within"), [
+    (0.003, 0.6e-3, 0.05), (0.003, 1.0e-3, 0.05), (0.006, 1.0e-3, 0.15),
+])  # fmt: skip
+def test_hertz_between_plates_on_coarse_bricks(size, press, within):
+    """R 20 mm, E 1 MPa, nu 0.45: the issue's goals, and node rows miss them there."""
+    # as a scene's ball of bricks is meshed: a node at each pole (contact.objects.ball)
+    n = 2 * int(np.ceil(0.25 * np.pi * 0.02 / size - 1e-9))
+    mesh = fem.ball_mesh(0.02, size, divisions=n, center=(0, 0, 0.02))
+    ball = ElasticBody("ball", mesh, fem.LinearElastic(E, NU))
+    planes = [Plane((0, 0, 0), (0, 0, 1), name="table"),
+              Plane((0, 0, 0.04), (0, 0, -1), motion=(0, 0, -press), name="plate")]  # fmt: skip
+    errors = {}
+    for weighted in (True, False):
+        res = solve_frame([ball], [ContactPair(ball, p, mortar=weighted) for p in planes], planes)
+        assert res.converged, res.stop_reason
+        force = res.obstacle_forces["plate"][2]
+        assert force == pytest.approx(-res.obstacle_forces["table"][2], rel=1e-10)
+        errors[weighted] = force / _hertz(press) - 1
+    assert abs(errors[True]) < within, errors
+    assert abs(errors[True]) < abs(errors[False]), errors
