@@ -15,7 +15,7 @@ assembled. It turns as far as its contacts take it and is never placed anew.
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 
 import fem
 
+from ..geometry.plane import Plane
 from ..geometry.surfacequery import TriangleSurface, surface_of_mesh
 from ..hand.objects import ObjectAssociation
 from ..scene.model import Follow
@@ -32,7 +33,7 @@ from ..solver.body import ElasticBody
 from ..solver.pairs import ContactPair
 from .ball import Ball, nodal_pressure
 
-__all__ = ["SceneObject", "from_ball", "from_scene", "object_pairs"]
+__all__ = ["SceneObject", "from_ball", "from_scene", "object_pairs", "plane_pairs"]
 
 log = logging.getLogger(__name__)
 
@@ -224,3 +225,25 @@ def object_pairs(a: ElasticBody, b: ElasticBody, mu: float) -> list[ContactPair]
 
     slave, master = (a, b) if fineness(a) <= fineness(b) else (b, a)
     return [ContactPair(slave, master, mortar=True)]
+
+
+def plane_pairs(
+    bodies: Sequence[ElasticBody],
+    planes: Sequence[Plane],
+    friction: Callable[[str, str], float],
+    gaps: str = "nodal",
+) -> list[ContactPair]:
+    """Each body against each plane: weighted rows where ``gaps`` asks and they apply.
+
+    ``friction(plane, body)`` is the pair's coefficient. Weighted (mortar) rows against a
+    plane take no friction and no force-driven plane
+    (:class:`~contact.solver.settings.ContactSettings` ``gaps``): such a pair keeps its
+    node rows.
+    """
+    out = []
+    for b in bodies:
+        for p in planes:
+            mu = friction(p.name, b.name)
+            weighted = gaps == "weighted" and mu == 0 and p.force is None
+            out.append(ContactPair(b, p, mortar=weighted, friction=mu))
+    return out

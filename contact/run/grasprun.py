@@ -46,7 +46,7 @@ from ..holding import fingertargets as ft
 from ..holding.fingerforce import FIRST_PRESS, drive
 from ..objects.ball import Ball, make_ball, nodal_pressure
 from ..objects.meshing import mesh_object
-from ..objects.placed import SceneObject, from_ball, from_scene, object_pairs
+from ..objects.placed import SceneObject, from_ball, from_scene, object_pairs, plane_pairs
 from ..scene.model import PlaneScene
 from ..scene.spec import Scene
 from ..solver.anchors import Anchors
@@ -419,12 +419,10 @@ class GraspRun:
             assert self._pose is not None
             extra["min_tet_quality"] = float(self._pose.min_quality)
         planes = [self._plane(p, t) for p in sc.planes]
-        pairs = [
-            ContactPair(o, p, friction=sc.friction(p.name, o.name)) for o in objects for p in planes
-        ] + pairs
+        settings = sc.solver.settings(self.limits)
+        pairs = plane_pairs(objects, planes, sc.friction, settings.gaps) + pairs
         setup = time.perf_counter() - t0
         # steps 2 to 5
-        settings = sc.solver.settings(self.limits)
         if not self._started:
             self._started = True
             check_overlaps(t, bodies, sc.planes, settings.gap_tolerance)

@@ -310,7 +310,7 @@ def _read_solver(r: SceneReader, data: dict) -> SolverScene:
         data.get("solver", {}), "solver", optional=(*CONTACT_KEYS, "linear_solver", "substeps")
     )
     kw: dict[str, Any] = {}
-    for key in ("algorithm", "relaxation"):
+    for key in ("algorithm", "relaxation", "gaps"):
         if key in s:
             kw[key] = r.string(s[key], f"solver.{key}")
     if "max_iterations" in s:

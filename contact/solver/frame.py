@@ -140,10 +140,8 @@ class FrameState:
         for i, pair in enumerate(self.pairs):
             if i in self.mortar:
                 cand = self.mortar[i]
-                sides = [(pair.slave, cand.rows.s_nodes)]
-                if not pair.rigid:
-                    sides.append((pair.master, cand.rows.m_nodes))
-                for body, nodes in sides:
+                sides = ((pair.slave, cand.rows.s_nodes), (pair.master, cand.rows.m_nodes))
+                for body, nodes in sides[: 1 if pair.rigid else 2]:  # a plane has no zone
                     n = np.unique(nodes[nodes >= 0])  # type: ignore[union-attr]
                     zone[body.name].append((n, np.full(n.size, -np.inf), every))
                 continue

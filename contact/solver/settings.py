@@ -12,12 +12,14 @@ from dataclasses import dataclass, field
 
 from ..errors import ContactError
 
-__all__ = ["ALGORITHMS", "RELAXATIONS", "ContactSettings"]
+__all__ = ["ALGORITHMS", "GAPS", "RELAXATIONS", "ContactSettings"]
 
 #: Contact algorithms by name.
 ALGORITHMS = ("contact-space", "seed")
 #: Relaxations of the seed loop.
 RELAXATIONS = ("none", "fixed", "aitken")
+#: How a body's gaps to a plane are measured: at its nodes, or weighted over its faces.
+GAPS = ("nodal", "weighted")
 
 
 @dataclass(frozen=True)
@@ -46,6 +48,11 @@ class ContactSettings:
         Relaxation of the seed loop's step 5.
     relaxation_factor : float
         The fixed factor, and Aitken's first one, in (0, 1].
+    gaps : {"nodal", "weighted"}
+        How a body's gaps to a frictionless plane that is not force-driven are measured:
+        at its surface nodes, or weighted over its faces on its smoothed surface
+        (:mod:`contact.solver.planemortar`), which resolves a patch smaller than the
+        faces. Other pairs keep their rows.
     support_limits : mapping of str to float, optional
         Largest force (N) each support group (bone) may carry; a frame whose force passes
         it is reported over the limit (``FrameResult.over_limit``), its solve unchanged.
@@ -64,6 +71,7 @@ class ContactSettings:
     force_tolerance: float = 1e-9
     relaxation: str = "none"
     relaxation_factor: float = 0.5
+    gaps: str = "nodal"
     support_limits: Mapping[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -76,6 +84,8 @@ class ContactSettings:
                 f"solver.relaxation must be one of {', '.join(RELAXATIONS)}, "
                 f"got {self.relaxation!r}"
             )
+        if self.gaps not in GAPS:
+            raise ContactError(f"solver.gaps must be one of {', '.join(GAPS)}, got {self.gaps!r}")
         if not isinstance(self.max_iterations, int) or self.max_iterations < 1:
             raise ContactError(
                 f"solver.max_iterations must be an integer >= 1, got {self.max_iterations!r}"

@@ -224,7 +224,7 @@ def test_gravity_follow_and_solver(scene_file) -> None:
         "max_iterations = 50",
         'max_iterations = 20\nalgorithm = "seed"\nrelaxation = "aitken"\n'
         'relaxation_factor = 0.3\nlinear_solver = "superlu"\ngap_tolerance = 2e-3\n'
-        "force_tolerance = 0.0",
+        'force_tolerance = 0.0\ngaps = "weighted"',
     )
     scene = load_scene(scene_file(text))
     assert scene.gravity == (0.0, 0.0, -9.81)
@@ -425,6 +425,8 @@ BAD = [
      ["solver.relaxation = 'strong'", "none, fixed, aitken"]),
     ("relaxation-factor", "max_iterations = 50", "relaxation_factor = 0.0",
      ["solver.relaxation_factor = 0.0", "(0, 1]"]),
+    ("gaps", "max_iterations = 50", 'gaps = "mortar"',
+     ["solver.gaps = 'mortar'", "nodal, weighted"]),
     ("linear-solver", "max_iterations = 50", 'linear_solver = "mumps"',
      ["solver.linear_solver = 'mumps'", "auto"]),
     ("unknown-bone", "{ index_distal = 20.0 }", "{ index_distl = 20.0 }",
