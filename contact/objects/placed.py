@@ -235,15 +235,14 @@ def plane_pairs(
 ) -> list[ContactPair]:
     """Each body against each plane: weighted rows where ``gaps`` asks and they apply.
 
-    ``friction(plane, body)`` is the pair's coefficient. Weighted (mortar) rows against a
-    plane take no friction and no force-driven plane
-    (:class:`~contact.solver.settings.ContactSettings` ``gaps``): such a pair keeps its
-    node rows.
+    ``friction(plane, body)`` is the pair's coefficient. Weighted (mortar) rows take no
+    force-driven plane (:class:`~contact.solver.settings.ContactSettings` ``gaps``): such
+    a pair keeps its node rows.
     """
     out = []
     for b in bodies:
         for p in planes:
             mu = friction(p.name, b.name)
-            weighted = gaps == "weighted" and mu == 0 and p.force is None
+            weighted = gaps == "weighted" and p.force is None
             out.append(ContactPair(b, p, mortar=weighted, friction=mu))
     return out

@@ -237,11 +237,6 @@ def _worst_slip(
 
 
 def _arms(frame, rows: ContactRows, centre: NDArray, axis: NDArray) -> NDArray:
-    """Each row's distance (m) from the axis ``axis`` through ``centre``, at its slave node."""
-    points = np.empty((len(rows), 3))
-    for i, pair in enumerate(frame.pairs):
-        sel = rows.pair == i
-        if sel.any():
-            points[sel] = pair.slave.mesh.points[rows.node[sel]]
-    d = points - centre
+    """Each row's distance (m) from the axis ``axis`` through ``centre``, at its slave point."""
+    d = rows.slave_points(frame.pairs) - centre
     return np.linalg.norm(d - np.outer(d @ axis, axis), axis=1)

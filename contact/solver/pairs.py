@@ -57,7 +57,8 @@ class ContactPair:
     mortar : bool
         Weighted (mortar) rows instead of node-to-surface rows: against a body
         (:mod:`contact.solver.mortar`) or a plane that is not force-driven
-        (:mod:`contact.solver.planemortar`); frictionless only.
+        (:mod:`contact.solver.planemortar`, with friction on their weighted slip too);
+        between bodies frictionless only.
     friction : float
         Coulomb's coefficient ``mu >= 0`` of the pair (0: frictionless).
     """
@@ -71,8 +72,8 @@ class ContactPair:
         mu = self.friction
         if isinstance(mu, bool) or not isinstance(mu, (int, float)) or not 0.0 <= mu < np.inf:
             raise ValueError(f"{self.name}: friction = {mu!r} must be a finite number >= 0")
-        if mu and self.mortar:
-            raise ValueError(f"{self.name}: mortar rows take no friction")
+        if mu and self.mortar and not isinstance(self.master, Plane):
+            raise ValueError(f"{self.name}: mortar rows between bodies take no friction")
         if self.mortar and isinstance(self.master, Plane) and self.master.force is not None:
             raise ValueError(f"{self.name}: mortar rows need a plane that is not force-driven")
 

@@ -11,7 +11,7 @@ rows come from measured gaps (:mod:`contact.solver.pairs`); mortar rows
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -109,6 +109,26 @@ class ContactRows:
             _stack(self.m_nodes, other.m_nodes, -1),
             _stack(self.m_coef, other.m_coef, 0.0),
         )
+
+    def slave_points(
+        self, pairs: Sequence[ContactPair], u: Mapping[str, NDArray] | None = None
+    ) -> NDArray[np.float64]:
+        """Each row's slave point ``sum_j a_j x_j``, ``(m, 3)``.
+
+        A node row's node, a weighted row's weighted mean of its nodes; at rest, or
+        displaced by ``u`` (each body's ``(N, 3)``).
+        """
+        out = np.zeros((len(self), 3))
+        for i in np.unique(self.pair):
+            sel = self.pair == i
+            body = pairs[int(i)].slave
+            x = body.mesh.points
+            if u is not None:
+                x = x + np.asarray(u[body.name]).reshape(-1, 3)
+            nodes, used = self.s_nodes[sel], self.s_nodes[sel] >= 0
+            coef = np.where(used, self.s_coef[sel], 0.0)
+            out[sel] = np.einsum("rk,rkd->rd", coef, x[np.where(used, nodes, 0)])
+        return out
 
     def extended(self, pairs: Sequence[ContactPair], index: int, p: Penetrations) -> ContactRows:
         """These rows and node-to-surface rows for pair ``index`` from measured gaps."""

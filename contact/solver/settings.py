@@ -49,7 +49,7 @@ class ContactSettings:
     relaxation_factor : float
         The fixed factor, and Aitken's first one, in (0, 1].
     gaps : {"nodal", "weighted"}
-        How a body's gaps to a frictionless plane that is not force-driven are measured:
+        How a body's gaps to a plane that is not force-driven are measured:
         at its surface nodes, or weighted over its faces on its smoothed surface
         (:mod:`contact.solver.planemortar`), which resolves a patch smaller than the
         faces. Other pairs keep their rows.

@@ -134,17 +134,17 @@ class Friction:
     def register(self, rows: ContactRows, u: dict[str, NDArray]) -> None:
         """Anchor every frictional contact of ``rows`` met for the first time where it is now."""
         pairs = self.frame.pairs
-        for i in np.flatnonzero(self.base[rows.pair] > 0):
+        new = [i for i in np.flatnonzero(self.base[rows.pair] > 0)
+               if (int(rows.pair[i]), int(rows.node[i])) not in self.anchor]  # fmt: skip
+        xs = rows.select(np.asarray(new, np.int64)).slave_points(pairs, u)
+        for i, x in zip(new, xs, strict=True):
             key = (int(rows.pair[i]), int(rows.node[i]))
-            if key in self.anchor:
-                continue
             pair = pairs[key[0]]
             if pair.rigid:
-                # the plane's material point under the node, the plane where the step
-                # started (where the last frame left it), the node where it is now
+                # the plane's material point under the row's slave point, the plane where
+                # the step started (where the last frame left it), the point where it is now
                 plane = pair.master
                 motion = self.motion.get(plane.name, plane.motion)
-                x = pair.slave.mesh.points[key[1]] + u[pair.slave.name][key[1]]
                 point = plane.moved(motion).project(x[None])[0] - motion
                 self.anchor[key] = (np.full(3, -1, np.int64), np.zeros(3), point)
             else:
@@ -233,10 +233,7 @@ class Friction:
         tangent[fr_idx] = k + np.arange(2 * kf).reshape(kf, 2)
         t1, t2 = tangent_basis(rows.normal[fr_idx])
         dirs = np.stack([t1, t2], axis=1).reshape(-1, 3)
-        slave_x = np.array(
-            [self.frame.pairs[p].slave.mesh.points[nd] for p, nd in keys]
-        ).reshape(-1, 3)
-        offset = slave_x - self._anchor_points(keys)
+        offset = rows.select(fr_idx).slave_points(self.frame.pairs) - self._anchor_points(keys)
         g0 = np.einsum("mj,mkj->mk", offset, np.stack([t1, t2], axis=1)).ravel()
         facets = np.array([self.anchor[key][0] for key in keys], dtype=np.int64)
         weights = np.array([self.anchor[key][1] for key in keys])
@@ -381,13 +378,13 @@ def end_anchors(
     facets = np.full((k, 3), -1, np.int64)
     weights = np.zeros((k, 3))
     points = np.full((k, 3), np.nan)
+    placed = rows.slave_points(pairs, u)
     for i in np.unique(rows.pair):
         pair = pairs[int(i)]
         sel = np.flatnonzero(rows.pair == i)
         nodes = rows.node[sel]
         if pair.rigid:
-            x = pair.slave.mesh.points[nodes] + u[pair.slave.name][nodes]
-            points[sel] = pair.master.project(x) - pair.master.motion
+            points[sel] = pair.master.project(placed[sel]) - pair.master.motion
         else:
             found = frame.measure_pair(int(i), u, frame.margin)
             at = {int(n): j for j, n in enumerate(found.nodes)}
