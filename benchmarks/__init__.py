@@ -23,6 +23,7 @@ BENCHMARKS = (
     "lcp",
     "frame",
     "patch",
+    "plates",
     "friction",
     "holding",
     "finite",
