@@ -14,20 +14,22 @@ pressure field is ``sum_i N_i lambda_i / A_i``. The displacement enters through 
 own interpolation (``D``); the rest geometry ``x~`` is the surface smoothed through its
 nodal normals (Phong tessellation, Boubekeur and Alexa 2008, with ``alpha = 1/2``: each
 point moves half-way to the mean of its projections on the corners' tangent planes). A
-mesh's facets lie inside the curved surface they stand for, by ``h^2 / 8R`` at a facet's
-middle: 0.22 mm for 6 mm facets on a 20 mm ball, as much as half a millimetre's press. On
-the flat facets a weighted gap sees that sagitta and closes late (a ball between plates
-on 6 mm bricks gives 78 % under Hertz at 1 mm of press, node rows 51 % under); on the
-smoothed surface, with ``alpha = 1/2`` exact to second order on a sphere, the press is
-the curved body's. Faces meeting at more than :data:`CREASE` keep their own normals
-there: a block's edge stays sharp, its flat faces stay flat (the contact patch test is
-passed exactly: a uniform pressure gives each node its consistent load ``p A_i``).
+coarse mesh's facets lie inside the curved surface they stand for, by ``h^2 / 8R`` at a
+facet's middle, as much as a small press: on the flat facets a weighted gap would see
+that sagitta and close late; on the smoothed surface, with ``alpha = 1/2`` exact to
+second order on a sphere, the press is the curved body's (``benchmarks/results/plates.md``
+compares both with node rows against Hertz). Faces meeting at more than :data:`CREASE`
+keep their own normals there: a block's edge stays sharp, its flat faces stay flat (the
+contact patch test is passed exactly: a uniform pressure gives each node its consistent
+load ``p A_i``).
 
 Triangles are integrated with a 7-point rule of degree 5, quads with 3 x 3 Gauss points:
 exact for ``N_i N_j`` and ``N_i`` times the smoothed surface's quadratic bulge.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
@@ -69,13 +71,11 @@ def _quad_rule() -> tuple[NDArray, NDArray, NDArray, NDArray]:
 _QUAD = _quad_rule()
 
 
-def _face_normals(x: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Unit normals of faces ``(F, k, 3)`` (triangles, or quads by their diagonals)."""
+def _face_cross(x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Normals of faces ``(F, k, 3)`` twice their areas long (quads by their diagonals)."""
     if x.shape[1] == 3:
-        c = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
-    else:
-        c = np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])
-    return c / np.maximum(np.linalg.norm(c, axis=1), 1e-300)[:, None]
+        return np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
+    return np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])
 
 
 def corner_normals(
@@ -91,9 +91,7 @@ def corner_normals(
     base = 0
     for k in kinds:
         f = faces[k]
-        x = points[f]
-        c = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]) if f.shape[1] == 3 else \
-            np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])  # fmt: skip
+        c = _face_cross(points[f])
         a = np.linalg.norm(c, axis=1)
         normals.append(c / np.maximum(a, 1e-300)[:, None])
         areas.append(a)
@@ -131,6 +129,7 @@ def _smoothed(x: NDArray, corner_n: NDArray, n: NDArray) -> NDArray[np.float64]:
     return flat - ALPHA * np.einsum("qk,fqkd->fqd", n, off)
 
 
+@dataclass(frozen=True)
 class PlaneRows:
     """The weighted rows of a surface against a plane: one per node of a face facing it.
 
@@ -146,8 +145,10 @@ class PlaneRows:
         Each row's weighted mean gap of the smoothed rest surface (m).
     """
 
-    def __init__(self, nodes, d, area, gap0) -> None:
-        self.nodes, self.d, self.area, self.gap0 = nodes, d, area, gap0
+    nodes: NDArray[np.int64]
+    d: sp.csr_matrix
+    area: NDArray[np.float64]
+    gap0: NDArray[np.float64]
 
     def __len__(self) -> int:
         return int(self.nodes.size)
@@ -167,7 +168,7 @@ def plane_rows(
     for kind, f in faces.items():
         if not len(f):
             continue
-        facing = _face_normals(points[f]) @ plane.normal < 0.0
+        facing = _face_cross(points[f]) @ plane.normal < 0.0
         if not facing.any():
             continue
         f, cn = f[facing], corner[kind][facing]
