@@ -139,6 +139,8 @@ class Friction:
         xs = rows.select(np.asarray(new, np.int64)).slave_points(pairs, u)
         for i, x in zip(new, xs, strict=True):
             key = (int(rows.pair[i]), int(rows.node[i]))
+            if key in self.anchor:
+                continue  # a node's second row (a concave corner): its first row's anchor
             pair = pairs[key[0]]
             if pair.rigid:
                 # the plane's material point under the row's slave point, the plane where
