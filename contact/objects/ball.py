@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 import fem
 
 from ..errors import BallError, ObjectError
+from .cache import cached
 
 __all__ = [
     "LOCKING_NOTE",
@@ -330,7 +331,12 @@ def _generate(spec: BallSpec) -> fem.Mesh:
             )
         p2, t2 = fem.sphere_surface(a, c, _refinement(a, h))
         pts, tri = np.concatenate([pts, p2]), np.concatenate([tri, t2[:, ::-1] + len(pts)])
-    return fem.tetrahedralize((pts, tri), h)
+    # fTetWild is not deterministic: the fill is kept, so that every run meshes alike
+    content = np.ascontiguousarray(pts, np.float64).tobytes() + tri.astype(np.int64).tobytes()
+    return cached(
+        Path(f"ball ({spec.kind}, tetrahedra)"), f"mesh_size {h!r}",
+        lambda: fem.tetrahedralize((pts, tri), h), (pts, tri), content=content,
+    )  # fmt: skip
 
 
 def _split(mesh: fem.Mesh, spec: BallSpec) -> tuple[fem.BoundaryFaces, fem.BoundaryFaces]:

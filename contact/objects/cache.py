@@ -67,12 +67,12 @@ def cache_dir() -> Path | None:
     return Path(base) / "grasp-contact"
 
 
-def _key(path: Path, settings: str) -> str:
+def _key(path: Path, settings: str, content: bytes | None = None) -> str:
     try:
         tetwild = version("pytetwild")
     except PackageNotFoundError:
         tetwild = "?"
-    h = hashlib.sha256(path.read_bytes())
+    h = hashlib.sha256(path.read_bytes() if content is None else content)
     h.update(f"|{settings}|pytetwild {tetwild}".encode())
     return h.hexdigest()[:32]
 
@@ -181,13 +181,15 @@ def cached(
     surface: tuple[NDArray, NDArray],
     *,
     tolerance: float = FILL_TOLERANCE,
+    content: bytes | None = None,
 ) -> fem.Mesh:
     """The mesh ``fill`` makes of the file ``path`` with ``settings``, kept between runs.
 
     Parameters
     ----------
     path : Path
-        The surface file (its bytes are part of the key).
+        The surface file (its bytes are part of the key); with ``content``, only the
+        surface's name in messages.
     settings : str
         Everything else the fill depends on (the size, fTetWild's options).
     fill : callable
@@ -197,6 +199,9 @@ def cached(
     tolerance : float
         How far, as a fraction of the surface's bounding-box diagonal, the kept mesh's
         bounding box may lie from the surface's (its volume: that distance times the area).
+    content : bytes, optional
+        The surface's bytes, for a surface made in memory (a generated ball's), instead
+        of the file's.
 
     Returns
     -------
@@ -210,7 +215,7 @@ def cached(
     folder = cache_dir()
     if folder is None:
         return fill()
-    target = folder / "objects" / f"{_key(path, settings)}.vtu"
+    target = folder / "objects" / f"{_key(path, settings, content)}.vtu"
     mesh, why = _read(target, surface, tolerance)
     if mesh is not None:
         log.info("'%s': its tetrahedra read from the cache %s", path, target)

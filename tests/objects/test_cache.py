@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import multiprocessing
+import os
 import subprocess
 import sys
 import time
@@ -188,3 +189,30 @@ def test_a_mesh_kept_without_its_record_is_filled_again_quietly(
     assert fills == [1]
     kept = json.loads(record.read_text())["sha256"]
     assert kept == hashlib.sha256(target.read_bytes()).hexdigest()
+
+
+def test_a_generated_tetrahedral_ball_is_meshed_alike_by_every_run(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from contact.objects.ball import BallSpec, make_ball
+
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path / "cache"))
+    spec = BallSpec(radius=0.02, element="tet", mesh_size=0.006)
+    first = make_ball(spec).mesh
+    assert len(list((tmp_path / "cache" / "objects").glob("*.vtu"))) == 1
+    # another process (fTetWild alone would fill it otherwise each time)
+    code = (
+        "import numpy as np; from contact.objects.ball import BallSpec, make_ball;"
+        "m = make_ball(BallSpec(radius=0.02, element='tet', mesh_size=0.006)).mesh;"
+        "np.save(__import__('sys').argv[1], m.points)"
+    )
+    out = tmp_path / "points.npy"
+    env = {**os.environ, CACHE_ENV: str(tmp_path / "cache")}
+    subprocess.run([sys.executable, "-c", code, str(out)], check=True, env=env)
+    assert np.array_equal(np.load(out), first.points)
+    again = make_ball(spec).mesh
+    assert np.array_equal(again.cells["tetra"], first.cells["tetra"])
+    # another size, another centre: other meshes
+    make_ball(BallSpec(radius=0.02, element="tet", mesh_size=0.005))
+    make_ball(BallSpec(radius=0.02, element="tet", mesh_size=0.006, center=(0.0, 0.0, 0.1)))
+    assert len(list((tmp_path / "cache" / "objects").glob("*.vtu"))) == 3
