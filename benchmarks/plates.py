@@ -20,6 +20,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
 from contact.geometry.plane import Plane
 from contact.objects.ball import BallSpec, make_ball
@@ -37,7 +38,7 @@ from ._common import (
     write_markdown,
 )
 
-__all__ = ["MESHES", "PRESSES", "hertz", "run"]
+__all__ = ["MESHES", "PRESSES", "hertz", "picture", "run"]
 
 R, E, NU = 0.02, 1.0e6, 0.45
 #: The plate's travel (m), in order.
@@ -116,7 +117,75 @@ def run(quick: bool = False, out: str | Path | None = None) -> list[dict]:
                 ("Goals", goals(rows))]  # fmt: skip
     write_markdown(folder / "plates.md", "A ball between plates: node rows and weighted gaps",
                    info, sections)  # fmt: skip
+    picture(folder / "plates.png", rows)
     return rows
+
+
+def _section(h: float, press: float) -> dict[str, NDArray[np.float64]]:
+    """The ball's section near the table, in mm: facets of ``h``, smoothed, exact, weight.
+
+    A 2-D cut of what :mod:`contact.solver.planemortar` integrates: the chords between
+    nodes ``h`` apart on the circle (the facets), the same chords Phong-smoothed through
+    the nodes' normals (``alpha = 1/2``), the circle, and the pole node's weight ``N_i``.
+    """
+    r = 1e3 * R
+    step = 1e3 * h / r
+    angles = step * np.arange(-3, 4)
+    nodes = np.column_stack([r * np.sin(angles), r - r * np.cos(angles)])
+    normals = np.column_stack([-np.sin(angles), np.cos(angles)])  # into the ball
+    s = np.linspace(0.0, 1.0, 41)[:, None]
+    flat, smooth = [], []
+    for a in range(len(nodes) - 1):
+        x0, x1, n0, n1 = nodes[a], nodes[a + 1], normals[a], normals[a + 1]
+        f = (1 - s) * x0 + s * x1
+        off = (1 - s) * ((f - x0) @ n0)[:, None] * n0 + s * ((f - x1) @ n1)[:, None] * n1
+        flat.append(f)
+        smooth.append(f - 0.5 * off)
+    t = np.linspace(angles[0], angles[-1], 400)
+    return {
+        "nodes": nodes, "flat": np.concatenate(flat), "smooth": np.concatenate(smooth),
+        "circle": np.column_stack([r * np.sin(t), r - r * np.cos(t)]),
+        "weight": np.column_stack([nodes[2:5, 0], [0.0, 1.0, 0.0]]), "plane": 1e3 * press / 2,
+    }  # fmt: skip
+
+
+def picture(path: Path, rows: list[dict]) -> None:
+    """The section the weighted gaps integrate over, and the plate force against the press."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (left, right) = plt.subplots(1, 2, figsize=(12, 4.8))
+    cut = _section(0.006, PRESSES[-1])
+    left.plot(*cut["circle"].T, "k-", lw=1, label="the ball (R 20 mm)")
+    left.plot(*cut["flat"].T, "C0--", label="6 mm facets: node rows, weighted gaps on them")
+    left.plot(*cut["smooth"].T, "C1-", label="the facets smoothed (on the circle): weighted gaps")
+    left.plot(*cut["nodes"].T, "C0o")
+    left.axhline(cut["plane"], color="C2", label="the table, 0.5 mm into the ball's rest shape")
+    w = cut["weight"]
+    left.fill_between(w[:, 0], -0.6, -0.6 + 0.4 * w[:, 1], color="C3", alpha=0.3,
+                      label="the pole node's weight N_i (its row averages the gap over it)")
+    left.set_xlim(-12, 12)
+    left.set_ylim(-0.7, 2.5)
+    left.set_xlabel("mm")
+    left.set_ylabel("height above the table (mm)")
+    left.set_title("The ball's section at the table: facets lie inside the sphere")
+    left.legend(fontsize="x-small", loc="upper center")
+    presses = 1e3 * np.asarray(PRESSES)
+    right.plot(presses, [hertz(p) for p in PRESSES], "k-", label="Hertz")
+    for i, mesh in enumerate(dict.fromkeys(r["mesh"] for r in rows)):
+        for gaps, style in (("nodal", "--"), ("weighted", "-")):
+            f = [r["force"] for r in rows if r["mesh"] == mesh and r["gaps"] == gaps]
+            right.plot(presses, f, style, marker="o", color=f"C{i}", label=f"{mesh}, {gaps}")
+    right.set_xlabel("plate down (mm)")
+    right.set_ylabel("plate force (N)")
+    right.set_title("A ball between plates against Hertz")
+    right.grid(True, alpha=0.3)
+    right.legend(fontsize="x-small")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
 
 
 def goals(rows: list[dict]) -> str:

@@ -18,6 +18,7 @@ def test_quick_run_writes_its_table_and_goals(tmp_path):
     table = list(csv.DictReader((tmp_path / "plates.csv").open()))
     assert len(table) == len(rows) == 2 * len(plates.PRESSES)
     md = (tmp_path / "plates.md").read_text()
+    assert (tmp_path / "plates.png").stat().st_size > 10_000
     assert "| bricks 6 mm: within 15 % of Hertz at 1.0 mm |" in md
     assert "the force monotone in the approach (weighted)" in md
     for r in rows:
