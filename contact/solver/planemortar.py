@@ -29,6 +29,7 @@ exact for ``N_i N_j`` and ``N_i`` times the smoothed surface's quadratic bulge.
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -160,15 +161,43 @@ def plane_rows(
     """The weighted rows of the surface ``faces`` of ``points`` against ``plane``.
 
     Only faces whose outward normal faces the plane (``n_face . n < 0``) are integrated:
-    a block's side faces do not weigh its bottom edge's rows.
+    a block's side faces do not weigh its bottom edge's rows. The integrals depend on the
+    plane's normal only (its place enters each gap linearly), so that they are kept for
+    the surface and the normal: a body the frames do not move (a ball pressed by a
+    moving plate) is integrated once.
     """
+    key = hashlib.blake2b(np.ascontiguousarray(points, np.float64).tobytes(), digest_size=20)
+    for kind in sorted(faces):
+        key.update(kind.encode() + np.ascontiguousarray(faces[kind], np.int64).tobytes())
+    key.update(np.ascontiguousarray(plane.normal, np.float64).tobytes())
+    digest = key.digest()
+    kept = _KEPT.get(digest)
+    if kept is None:
+        kept = _integrals(points, faces, plane.normal)
+        while len(_KEPT) >= _KEEP:
+            _KEPT.pop(next(iter(_KEPT)))
+        _KEPT[digest] = kept
+    nodes, d, area, moment = kept
+    gap0 = moment @ plane.normal / area - float((plane.point + plane.motion) @ plane.normal)
+    return PlaneRows(nodes, d, area, gap0)
+
+
+#: The integrals of the surfaces and normals last asked for, by their bytes' hash.
+_KEPT: dict[bytes, tuple[NDArray, sp.csr_matrix, NDArray, NDArray]] = {}
+_KEEP = 16
+
+
+def _integrals(
+    points: NDArray[np.float64], faces: dict[str, NDArray[np.int64]], normal: NDArray
+) -> tuple[NDArray[np.int64], sp.csr_matrix, NDArray[np.float64], NDArray[np.float64]]:
+    """The rows' nodes, ``D``, ``A`` and each row's ``int N_i x~ dA`` ``(s, 3)``."""
     n_pts = len(points)
     corner = corner_normals(points, faces)
     rows, cols, vals, g_nodes, g_vals = [], [], [], [], []
     for kind, f in faces.items():
         if not len(f):
             continue
-        facing = _face_cross(points[f]) @ plane.normal < 0.0
+        facing = _face_cross(points[f]) @ normal < 0.0
         if not facing.any():
             continue
         f, cn = f[facing], corner[kind][facing]
@@ -181,22 +210,24 @@ def plane_rows(
             n, da, db, w = _QUAD
             xa, xb = np.einsum("qk,fkd->fqd", da, x), np.einsum("qk,fkd->fqd", db, x)
             jw = np.linalg.norm(np.cross(xa, xb), axis=-1) * w[None]
-        gap = plane.signed_distance(_smoothed(x, cn, n).reshape(-1, 3)).reshape(jw.shape)
+        smooth = _smoothed(x, cn, n)  # (F, q, 3)
         k = f.shape[1]
         m = np.einsum("fq,qi,qj->fij", jw, n, n)  # (F, k, k)
         rows.append(np.repeat(f, k, axis=1).ravel())
         cols.append(np.tile(f, k).ravel())
         vals.append(m.ravel())
         g_nodes.append(f.ravel())
-        g_vals.append(np.einsum("fq,qi,fq->fi", jw, n, gap).ravel())
+        g_vals.append(np.einsum("fq,qi,fqd->fid", jw, n, smooth).reshape(-1, 3))
     if not rows:
-        return PlaneRows(np.zeros(0, np.int64), sp.csr_matrix((0, n_pts)), np.zeros(0), np.zeros(0))
+        empty = np.zeros(0)
+        return np.zeros(0, np.int64), sp.csr_matrix((0, n_pts)), empty, np.zeros((0, 3))
     r, c = np.concatenate(rows), np.concatenate(cols)
     nodes = np.unique(r)
     local = np.searchsorted(nodes, r)
     d = sp.csr_matrix((np.concatenate(vals), (local, c)), shape=(nodes.size, n_pts))
     d.sum_duplicates()
     area = np.asarray(d.sum(axis=1)).ravel()
-    g = np.bincount(np.searchsorted(nodes, np.concatenate(g_nodes)), np.concatenate(g_vals),
-                    minlength=nodes.size)  # fmt: skip
-    return PlaneRows(nodes, d, area, g / area)
+    at = np.searchsorted(nodes, np.concatenate(g_nodes))
+    moment = np.zeros((nodes.size, 3))
+    np.add.at(moment, at, np.concatenate(g_vals))
+    return nodes, d, area, moment

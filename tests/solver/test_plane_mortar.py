@@ -43,6 +43,25 @@ def test_a_block_s_flat_faces_keep_their_normals_and_their_nodal_gaps(element):
     assert np.asarray(rows.d.sum(axis=1)).ravel() == pytest.approx(rows.area, rel=1e-12)
 
 
+def test_the_integrals_are_kept_for_a_surface_and_a_normal():
+    from contact.solver import planemortar
+
+    mesh = fem.ball_mesh(0.02, divisions=4, layers=2)
+    faces = mesh.boundary.faces
+    planemortar._KEPT.clear()
+    table = plane_rows(mesh.points, faces, Plane((0, 0, -0.02), (0, 0, 1)))
+    moved = plane_rows(mesh.points, faces, Plane((0, 0, -0.02), (0, 0, 1), motion=(0, 0, 1e-3)))
+    assert len(planemortar._KEPT) == 1 and moved.d is table.d
+    # the plane's place enters each gap linearly
+    assert moved.gap0 == pytest.approx(table.gap0 - 1e-3, abs=1e-15)
+    # another normal, or the body moved: integrated anew
+    plane_rows(mesh.points, faces, Plane((0, 0, 0.02), (0, 0, -1)))
+    up = mesh.points + np.array([0.0, 0.0, 1e-3])
+    shifted = plane_rows(up, faces, Plane((0, 0, -0.02), (0, 0, 1)))
+    assert len(planemortar._KEPT) == 3
+    assert shifted.gap0 == pytest.approx(table.gap0 + 1e-3, abs=1e-15)
+
+
 def test_a_ball_s_weighted_gaps_are_its_curved_surface_s():
     r = 0.02
     mesh = fem.ball_mesh(r, divisions=8, layers=4)
