@@ -30,6 +30,7 @@ exact for ``N_i N_j`` and ``N_i`` times the smoothed surface's quadratic bulge.
 from __future__ import annotations
 
 import hashlib
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -174,9 +175,10 @@ def plane_rows(
     kept = _KEPT.get(digest)
     if kept is None:
         kept = _integrals(points, faces, plane.normal)
-        while len(_KEPT) >= _KEEP:
-            _KEPT.pop(next(iter(_KEPT)))
-        _KEPT[digest] = kept
+        with _LOCK:  # a sweep's threads may share the module
+            while len(_KEPT) >= _KEEP:
+                _KEPT.pop(next(iter(_KEPT)))
+            _KEPT[digest] = kept
     nodes, d, area, moment = kept
     gap0 = moment @ plane.normal / area - float((plane.point + plane.motion) @ plane.normal)
     return PlaneRows(nodes, d, area, gap0)
@@ -185,6 +187,7 @@ def plane_rows(
 #: The integrals of the surfaces and normals last asked for, by their bytes' hash.
 _KEPT: dict[bytes, tuple[NDArray, sp.csr_matrix, NDArray, NDArray]] = {}
 _KEEP = 16
+_LOCK = threading.Lock()
 
 
 def _integrals(
