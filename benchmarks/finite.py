@@ -49,7 +49,17 @@ from ._common import (
 from .finite_example import COLUMNS as EXAMPLE_COLUMNS
 from .finite_example import example_rows, example_section
 
-__all__ = ["PRESSES", "SIZES", "run"]
+__all__ = [
+    "PRESSES",
+    "SIZES",
+    "ball",
+    "finite_presses",
+    "linear_presses",
+    "order",
+    "plates",
+    "run",
+    "surface_edge",
+]
 
 R, E, NU = 0.02, 1.0e6, 0.45
 #: d / R of the frames, in order.
@@ -75,20 +85,23 @@ COLUMNS = (
 )
 
 
-def _planes(d: float) -> list[Plane]:
+def plates(d: float) -> list[Plane]:
+    """The table and the plate, each advanced by ``d R / 2``."""
     return [
         Plane((0, 0, -R), (0, 0, 1), motion=(0, 0, d * R / 2), name="table"),
         Plane((0, 0, R), (0, 0, -1), motion=(0, 0, -d * R / 2), name="plate"),
     ]
 
 
-def _finite(
+def finite_presses(
     mesh: fem.Mesh, mat: fem.LinearElastic, clock: dict[str, float] | None = None
 ) -> tuple[list[int], float]:
+    """The neo-Hookean ball pressed through :data:`PRESSES`, each frame from the last:
+    its Newton steps per frame and the last plate force (N); ``clock`` adds the timings."""
     body = FiniteBody("ball", mesh, mat)
     start, steps, force = None, [], math.nan
     for d in PRESSES:
-        planes = _planes(d)
+        planes = plates(d)
         out = solve_finite_frame([body], [ContactPair(body, p) for p in planes], planes,
                                  start=start)
         if not out.converged:
@@ -102,13 +115,16 @@ def _finite(
     return steps, force
 
 
-def _linear(mesh: fem.Mesh, mat: fem.LinearElastic) -> float:
+def linear_presses(mesh: fem.Mesh, mat: fem.LinearElastic) -> float:
+    """The linear ball pressed to each of :data:`PRESSES` from rest: the last plate force (N)."""
     force = math.nan
     for d in PRESSES:
         body = ElasticBody("ball", mesh, mat)
-        planes = _planes(d)
+        planes = plates(d)
         res = solve_frame([body], [ContactPair(body, p) for p in planes], planes,
                           ContactSettings())
+        if not res.converged:
+            raise RuntimeError(f"linear frame at d/R {d}: {res.stop_reason}")
         force = float(res.obstacle_forces["plate"][2])
     return force
 
@@ -121,20 +137,20 @@ def run(quick: bool = False, out: str | Path | None = None) -> list[dict]:
     rows: list[dict] = []
     # warm both paths (imports, compiled kernels) so that neither run pays them
     warm = ball(SIZES[quick][0])
-    _linear(warm, mat)
-    _finite(warm, mat)
+    linear_presses(warm, mat)
+    finite_presses(warm, mat)
     for n in SIZES[quick]:
         mesh = ball(n)
         gc.collect()
         with PeakMemory() as mem_lin:
             t0 = time.perf_counter()
-            f_lin = _linear(mesh, mat)
+            f_lin = linear_presses(mesh, mat)
             t_lin = time.perf_counter() - t0
         gc.collect()
         with PeakMemory() as mem_fin:
             t0 = time.perf_counter()
             clock: dict[str, float] = {}
-            steps, f_fin = _finite(mesh, mat, clock)
+            steps, f_fin = finite_presses(mesh, mat, clock)
             t_fin = time.perf_counter() - t0
         rows.append({
             "divisions": n, "h_over_R": surface_edge(mesh) / R, "dofs": mesh.n_dofs,

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from contact.cases.hertz_theory import effective_modulus
 from contact.geometry.plane import Plane
 from contact.objects.ball import BallSpec, make_ball
 from contact.solver import solve_frame
@@ -38,7 +39,7 @@ from ._common import (
     write_markdown,
 )
 
-__all__ = ["MESHES", "PRESSES", "hertz", "picture", "run"]
+__all__ = ["MESHES", "PRESSES", "ball", "hertz", "picture", "run"]
 
 R, E, NU = 0.02, 1.0e6, 0.45
 #: The plate's travel (m), in order.
@@ -67,23 +68,25 @@ COLUMNS = (
 
 def hertz(press: float) -> float:
     """Each contact's force (N) of the ball pressed by ``press`` in all (m)."""
-    return 4 / 3 * E / (1 - NU**2) * np.sqrt(R) * (press / 2) ** 1.5
+    return 4 / 3 * effective_modulus(E, NU) * np.sqrt(R) * (press / 2) ** 1.5
 
 
-def _ball(element: str, size: float) -> ElasticBody:
+def ball(element: str, size: float) -> ElasticBody:
+    """The study's ball of ``element`` (``"hex"`` or ``"tet"``) and ``size``, meshed as a
+    scene meshes it (:func:`contact.objects.ball.make_ball`), resting on the table."""
     spec = BallSpec(radius=R, kind="solid", element=element, mesh_size=size,
                     center=(0.0, 0.0, R), E=E, nu=NU, density=1000.0,
                     nodal_pressure=True if element == "tet" else None)  # fmt: skip
-    ball = make_ball(spec)
-    return ElasticBody("ball", ball.mesh, ball.material, nodal_pressure=ball.nodal_pressure)
+    made = make_ball(spec)
+    return ElasticBody("ball", made.mesh, made.material, nodal_pressure=made.nodal_pressure)
 
 
-def _press(ball: ElasticBody, press: float, weighted: bool) -> tuple[float, int, float]:
+def _press(body: ElasticBody, press: float, weighted: bool) -> tuple[float, int, float]:
     planes = [Plane((0, 0, 0), (0, 0, 1), name="table"),
               Plane((0, 0, 2 * R), (0, 0, -1), motion=(0, 0, -press), name="plate")]  # fmt: skip
-    pairs = [ContactPair(ball, p, mortar=weighted) for p in planes]
+    pairs = [ContactPair(body, p, mortar=weighted) for p in planes]
     t0 = time.perf_counter()
-    res = solve_frame([ball], pairs, planes)
+    res = solve_frame([body], pairs, planes)
     took = time.perf_counter() - t0
     if not res.converged:
         return float("nan"), 0, took
@@ -97,16 +100,16 @@ def run(quick: bool = False, out: str | Path | None = None) -> list[dict]:
     info = machine_info()
     rows: list[dict] = []
     for label, element, size in MESHES[quick]:
-        ball = _ball(element, size)
-        _press(ball, PRESSES[-1], False)  # factor once: each press then pays its own solve
+        body = ball(element, size)
+        _press(body, PRESSES[-1], False)  # factor once: each press then pays its own solve
         for weighted in (False, True):
             for press in PRESSES:
-                force, n, took = _press(ball, press, weighted)
+                force, n, took = _press(body, press, weighted)
                 rows.append({
                     "mesh": label, "gaps": "weighted" if weighted else "nodal",
                     "press_mm": 1e3 * press, "force": force, "hertz": hertz(press),
                     "error": 100 * (force / hertz(press) - 1), "rows": n, "frame_s": took,
-                    "dofs": ball.mesh.n_dofs, "load": load_average(),
+                    "dofs": body.mesh.n_dofs, "load": load_average(),
                 })  # fmt: skip
         print(f"[plates] {label}: " + ", ".join(
             f"{r['gaps']} {r['press_mm']:.1f} mm {r['error']:+.1f} %"

@@ -18,7 +18,15 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["ELEMENTS", "HEX8", "TET4", "WEDGE6", "ReferenceElement", "face_quadrature"]
+__all__ = [
+    "ELEMENTS",
+    "HEX8",
+    "TET4",
+    "TRI_RULE5",
+    "WEDGE6",
+    "ReferenceElement",
+    "face_quadrature",
+]
 
 _G = 1.0 / np.sqrt(3.0)
 
@@ -179,13 +187,31 @@ ELEMENTS: dict[str, ReferenceElement] = {e.name: e for e in (TET4, HEX8, WEDGE6)
 """Supported volume elements keyed by meshio cell type name."""
 
 
-def face_quadrature(n_face_nodes: int) -> tuple[NDArray, NDArray, NDArray]:
+_S15 = np.sqrt(15.0)
+_A5, _B5 = (6 - _S15) / 21, (6 + _S15) / 21
+#: A 7-point rule of degree 5 on a triangle: barycentric points ``(7, 3)`` and weights as
+#: fractions of its area (Strang and Fix).
+TRI_RULE5 = (
+    np.array([[1 / 3, 1 / 3, 1 / 3], [_A5, _A5, 1 - 2 * _A5], [_A5, 1 - 2 * _A5, _A5],
+              [1 - 2 * _A5, _A5, _A5], [_B5, _B5, 1 - 2 * _B5], [_B5, 1 - 2 * _B5, _B5],
+              [1 - 2 * _B5, _B5, _B5]]),
+    np.array([9 / 40] + [(155 - _S15) / 1200] * 3 + [(155 + _S15) / 1200] * 3),
+)  # fmt: skip
+_G3 = np.array([-np.sqrt(0.6), 0.0, np.sqrt(0.6)])
+_W3 = np.array([5 / 9, 8 / 9, 5 / 9])
+
+
+def face_quadrature(n_face_nodes: int, degree: int = 2) -> tuple[NDArray, NDArray, NDArray]:
     """Quadrature on a reference face.
 
     Parameters
     ----------
     n_face_nodes : int
         3 for a linear triangle, 4 for a bilinear quadrilateral.
+    degree : int
+        Polynomials up to this degree are integrated exactly: up to 2 on a triangle (3
+        points) and 3 on a quadrilateral (2 x 2 Gauss points), up to 5 with 7 points and
+        3 x 3 Gauss points.
 
     Returns
     -------
@@ -196,16 +222,23 @@ def face_quadrature(n_face_nodes: int) -> tuple[NDArray, NDArray, NDArray]:
     w : ndarray, shape (q,)
         Weights (they sum to the reference area: 1/2 or 4).
     """
+    if not 0 <= degree <= 5:
+        raise ValueError(f"face quadrature of degree {degree!r}: 0 to 5")
     if n_face_nodes == 3:
-        p = _TRI3
-        n = np.stack([1 - p[:, 0] - p[:, 1], p[:, 0], p[:, 1]], axis=1)
-        dn = np.broadcast_to(np.array([[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]]), (3, 3, 2)).copy()
-        return n, dn, np.full(3, 1.0 / 6.0)
+        if degree <= 2:
+            p = _TRI3
+            n = np.stack([1 - p[:, 0] - p[:, 1], p[:, 0], p[:, 1]], axis=1)
+            w = np.full(3, 1.0 / 6.0)
+        else:
+            n, w = TRI_RULE5[0].copy(), TRI_RULE5[1] / 2
+        dn = np.array([[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]])
+        return n, np.broadcast_to(dn, (len(n), 3, 2)).copy(), w
     if n_face_nodes == 4:
         c = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], dtype=float)
-        p = np.array([[a, b] for b in (-_G, _G) for a in (-_G, _G)])
+        g, gw = (np.array([-_G, _G]), np.ones(2)) if degree <= 3 else (_G3, _W3)
+        p = np.array([[a, b] for b in g for a in g])
         t = 1.0 + p[:, None, :] * c[None]
         n = 0.25 * t[..., 0] * t[..., 1]
         dn = np.stack([0.25 * c[None, :, 0] * t[..., 1], 0.25 * t[..., 0] * c[None, :, 1]], axis=-1)
-        return n, dn, np.ones(4)
+        return n, dn, np.outer(gw, gw).ravel()
     raise ValueError(f"faces with {n_face_nodes} nodes are not supported (3 or 4)")

@@ -71,29 +71,16 @@ import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
+from fem.elements import TRI_RULE5
+
 __all__ = ["MortarCoupling", "mortar_coupling"]
 
-_S15 = np.sqrt(15.0)
 # Gauss rules on a triangle: barycentric points (q, 3), weights as fractions of its area
 _RULE2 = (
     np.array([[2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6], [1 / 6, 1 / 6, 2 / 3]]),
     np.full(3, 1 / 3),
 )
-_A, _B = (6 - _S15) / 21, (6 + _S15) / 21
-_RULE5 = (
-    np.array(
-        [
-            [1 / 3, 1 / 3, 1 / 3],
-            [_A, _A, 1 - 2 * _A],
-            [_A, 1 - 2 * _A, _A],
-            [1 - 2 * _A, _A, _A],
-            [_B, _B, 1 - 2 * _B],
-            [_B, 1 - 2 * _B, _B],
-            [1 - 2 * _B, _B, _B],
-        ]
-    ),
-    np.array([9 / 40] + [(155 - _S15) / 1200] * 3 + [(155 + _S15) / 1200] * 3),
-)
+_RULE5 = TRI_RULE5
 _CHUNK = 20_000  # facet pairs integrated at once
 _NEWTON = 30  # iterations cap of the inverse bilinear map
 

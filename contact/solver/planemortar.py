@@ -23,8 +23,9 @@ keep their own normals there: a block's edge stays sharp, its flat faces stay fl
 contact patch test is passed exactly: a uniform pressure gives each node its consistent
 load ``p A_i``).
 
-Triangles are integrated with a 7-point rule of degree 5, quads with 3 x 3 Gauss points:
-exact for ``N_i N_j`` and ``N_i`` times the smoothed surface's quadratic bulge.
+Faces are integrated with :func:`fem.elements.face_quadrature` of degree 5 (7 points on a
+triangle, 3 x 3 on a quad): exact for ``N_i N_j`` and ``N_i`` times the smoothed
+surface's quadratic bulge.
 """
 
 from __future__ import annotations
@@ -37,6 +38,8 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
+from fem.elements import face_quadrature
+
 from ..geometry.plane import Plane
 
 __all__ = ["CREASE", "PlaneRows", "corner_normals", "plane_rows"]
@@ -45,33 +48,6 @@ __all__ = ["CREASE", "PlaneRows", "corner_normals", "plane_rows"]
 CREASE = 40.0
 #: Phong tessellation's blend: 1/2 is exact to second order on a sphere.
 ALPHA = 0.5
-
-_S15 = np.sqrt(15.0)
-_A, _B = (6 - _S15) / 21, (6 + _S15) / 21
-# degree-5 rule on a triangle: barycentric points and weights (fractions of its area)
-_TRI = (
-    np.array([[1 / 3, 1 / 3, 1 / 3], [_A, _A, 1 - 2 * _A], [_A, 1 - 2 * _A, _A],
-              [1 - 2 * _A, _A, _A], [_B, _B, 1 - 2 * _B], [_B, 1 - 2 * _B, _B],
-              [1 - 2 * _B, _B, _B]]),
-    np.array([9 / 40] + [(155 - _S15) / 1200] * 3 + [(155 + _S15) / 1200] * 3),
-)  # fmt: skip
-_G3 = np.array([-np.sqrt(0.6), 0.0, np.sqrt(0.6)])
-_W3 = np.array([5 / 9, 8 / 9, 5 / 9])
-
-
-def _quad_rule() -> tuple[NDArray, NDArray, NDArray, NDArray]:
-    """3 x 3 Gauss points on [-1, 1]^2: bilinear shape functions, their derivatives, weights."""
-    a, b = (g.ravel() for g in np.meshgrid(_G3, _G3, indexing="ij"))
-    w = np.outer(_W3, _W3).ravel()
-    sa, sb = np.array([-1, 1, 1, -1]), np.array([-1, -1, 1, 1])
-    n = 0.25 * (1 + sa[None] * a[:, None]) * (1 + sb[None] * b[:, None])
-    da = 0.25 * sa[None] * (1 + sb[None] * b[:, None])
-    db = 0.25 * sb[None] * (1 + sa[None] * a[:, None])
-    return n, da, db, w
-
-
-_QUAD = _quad_rule()
-
 
 def _face_cross(x: NDArray[np.float64]) -> NDArray[np.float64]:
     """Normals of faces ``(F, k, 3)`` twice their areas long (quads by their diagonals)."""
@@ -205,14 +181,9 @@ def _integrals(
             continue
         f, cn = f[facing], corner[kind][facing]
         x = points[f]
-        if f.shape[1] == 3:
-            n, w = _TRI
-            area = 0.5 * np.linalg.norm(np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), axis=1)
-            jw = area[:, None] * w[None]  # (F, q)
-        else:
-            n, da, db, w = _QUAD
-            xa, xb = np.einsum("qk,fkd->fqd", da, x), np.einsum("qk,fkd->fqd", db, x)
-            jw = np.linalg.norm(np.cross(xa, xb), axis=-1) * w[None]
+        n, dn, w = face_quadrature(f.shape[1], degree=5)
+        xa, xb = np.einsum("qk,fkd->fqd", dn[..., 0], x), np.einsum("qk,fkd->fqd", dn[..., 1], x)
+        jw = np.linalg.norm(np.cross(xa, xb), axis=-1) * w[None]  # (F, q)
         smooth = _smoothed(x, cn, n)  # (F, q, 3)
         k = f.shape[1]
         m = np.einsum("fq,qi,qj->fij", jw, n, n)  # (F, k, k)

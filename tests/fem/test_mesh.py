@@ -1,3 +1,5 @@
+import math
+
 import numpy as np
 import pytest
 
@@ -29,9 +31,32 @@ def test_shape_gradients_match_finite_differences():
 
 def test_face_quadrature_integrates_area():
     for k, area in ((3, 0.5), (4, 4.0)):
-        n, _, w = face_quadrature(k)
-        assert w.sum() == pytest.approx(area)
-        assert np.allclose(n.sum(axis=1), 1.0)
+        for degree in (2, 5):
+            n, _, w = face_quadrature(k, degree)
+            assert w.sum() == pytest.approx(area)
+            assert np.allclose(n.sum(axis=1), 1.0)
+
+
+@pytest.mark.parametrize("degree", [2, 5])
+def test_face_quadrature_is_exact_to_its_degree(degree):
+    # the triangle (0,0), (1,0), (0,1): int x^i y^j = i! j! / (i + j + 2)!
+    n, _, w = face_quadrature(3, degree)
+    xi, eta = n[:, 1], n[:, 2]
+    for i in range(degree + 1):
+        for j in range(degree + 1 - i):
+            exact = math.factorial(i) * math.factorial(j) / math.factorial(i + j + 2)
+            assert w @ (xi**i * eta**j) == pytest.approx(exact, rel=1e-13)
+    # [-1, 1]^2: the nodes are the corners; x = sum N_k c_k
+    n, _, w = face_quadrature(4, degree)
+    c = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], dtype=float)
+    x, y = (n @ c).T
+    top = 3 if degree == 2 else 5
+    for i in range(top + 1):
+        for j in range(top + 1):
+            exact = (1 + (-1) ** i) / (i + 1) * (1 + (-1) ** j) / (j + 1)
+            assert w @ (x**i * y**j) == pytest.approx(exact, abs=1e-13)
+    with pytest.raises(ValueError, match="degree"):
+        face_quadrature(3, 6)
 
 
 @pytest.mark.parametrize("element", ["tetra", "hexahedron", "wedge"])

@@ -8,12 +8,14 @@ import numpy as np
 import pytest
 
 import fem
+from benchmarks import plates
 from contact.geometry.plane import Plane
 from contact.grasp import main
 from contact.solver import solve_frame
 from contact.solver.body import ElasticBody
 from contact.solver.pairs import ContactPair
 from contact.solver.planemortar import corner_normals, plane_rows
+from fem.elements import face_quadrature
 
 E, NU = 1.0e6, 0.45
 
@@ -89,8 +91,7 @@ def test_a_ball_s_weighted_gaps_are_its_curved_surface_s():
 
 def _sphere_weighted_gap(mesh, faces, rows, i, r, plane):
     """Node ``i``'s weighted gap with each quadrature point moved radially onto the sphere."""
-    g3 = np.array([-np.sqrt(0.6), 0.0, np.sqrt(0.6)])
-    w3 = np.array([5 / 9, 8 / 9, 5 / 9])
+    n, dn, w = face_quadrature(4, degree=5)
     node = rows.nodes[i]
     num = den = 0.0
     for f in faces["quad"]:
@@ -100,16 +101,11 @@ def _sphere_weighted_gap(mesh, faces, rows, i, r, plane):
         if np.cross(x[2] - x[0], x[3] - x[1]) @ plane.normal >= 0:
             continue
         k = int(np.flatnonzero(f == node)[0])
-        for a, wa in zip(g3, w3, strict=True):
-            for b, wb in zip(g3, w3, strict=True):
-                sa, sb = np.array([-1, 1, 1, -1]), np.array([-1, -1, 1, 1])
-                n = 0.25 * (1 + sa * a) * (1 + sb * b)
-                da, db = 0.25 * sa * (1 + sb * b), 0.25 * sb * (1 + sa * a)
-                jw = np.linalg.norm(np.cross(da @ x, db @ x)) * wa * wb
-                q = n @ x
-                on = q / np.linalg.norm(q) * r
-                num += jw * n[k] * plane.signed_distance(on[None])[0]
-                den += jw * n[k]
+        jw = np.linalg.norm(np.cross(dn[..., 0] @ x, dn[..., 1] @ x), axis=1) * w
+        q = n @ x
+        on = q / np.linalg.norm(q, axis=1)[:, None] * r
+        num += jw @ (n[:, k] * plane.signed_distance(on))
+        den += jw @ n[:, k]
     return num / den
 
 
@@ -146,20 +142,12 @@ def test_a_plane_pressing_a_block_with_weighted_rows_passes_the_patch_test(eleme
     assert (res.contacts["force"] > 0).all()
 
 
-def _hertz(d):
-    """Each contact's force (N) of a ball pressed between plates by ``d`` in all (m)."""
-    return 4 / 3 * E / (1 - NU**2) * np.sqrt(0.02) * (d / 2) ** 1.5
-
-
 @pytest.mark.parametrize(("size", "press", "within"), [
     (0.003, 0.6e-3, 0.05), (0.003, 1.0e-3, 0.05), (0.006, 1.0e-3, 0.15),
 ])  # fmt: skip
 def test_hertz_between_plates_on_coarse_bricks(size, press, within):
     """R 20 mm, E 1 MPa, nu 0.45: the issue's goals, and node rows miss them there."""
-    # as a scene's ball of bricks is meshed: a node at each pole (contact.objects.ball)
-    n = 2 * int(np.ceil(0.25 * np.pi * 0.02 / size - 1e-9))
-    mesh = fem.ball_mesh(0.02, size, divisions=n, center=(0, 0, 0.02))
-    ball = ElasticBody("ball", mesh, fem.LinearElastic(E, NU))
+    ball = plates.ball("hex", size)  # as a scene meshes it: a node at each pole
     planes = [Plane((0, 0, 0), (0, 0, 1), name="table"),
               Plane((0, 0, 0.04), (0, 0, -1), motion=(0, 0, -press), name="plate")]  # fmt: skip
     errors = {}
@@ -168,7 +156,7 @@ def test_hertz_between_plates_on_coarse_bricks(size, press, within):
         assert res.converged, res.stop_reason
         force = res.obstacle_forces["plate"][2]
         assert force == pytest.approx(-res.obstacle_forces["table"][2], rel=1e-10)
-        errors[weighted] = force / _hertz(press) - 1
+        errors[weighted] = force / plates.hertz(press) - 1
     assert abs(errors[True]) < within, errors
     assert abs(errors[True]) < abs(errors[False]), errors
 
@@ -186,7 +174,7 @@ def test_the_scene_key_weighs_the_plates_gaps(tmp_path):
         summary = json.loads((tmp_path / gaps / "summary.json").read_text())
         assert summary["scene"]["solver"]["gaps"] == gaps
         forces[gaps] = [f["obstacle_forces"]["plate"]["force"][2] for f in summary["frames"]]
-    errors = {k: [f / _hertz(d) - 1 for f, d in zip(v, (0.6e-3, 1.0e-3), strict=True)]
+    errors = {k: [f / plates.hertz(d) - 1 for f, d in zip(v, (0.6e-3, 1.0e-3), strict=True)]
               for k, v in forces.items()}  # fmt: skip
     assert max(abs(e) for e in errors["weighted"]) < 0.05, errors
     assert abs(errors["nodal"][0]) > 0.1, errors  # node rows: 17 % under at 0.6 mm
