@@ -13,7 +13,10 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["Anchors"]
+from .pairs import displaced_surface
+from .rows import ContactRows
+
+__all__ = ["Anchors", "end_anchors", "master_points", "own_of"]
 
 
 @dataclass(frozen=True)
@@ -102,3 +105,73 @@ class Anchors:
             self, pair=met.pair, node=met.node, facet=met.facet, weights=met.weights,
             point=met.point,
         )  # fmt: skip
+
+
+def master_points(
+    pair, x: NDArray[np.float64], u: Mapping[str, NDArray]
+) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    """The master's material points under points ``x`` ``(k, 3)`` at displacements ``u``.
+
+    The closest points of the master's displaced contact surface, as facets ``(k, 3)``
+    and barycentric weights ``(k, 3)``: a weighted row's stick anchor, the master's point
+    under the row's weighted slave point.
+    """
+    master = pair.master
+    surface, tri = displaced_surface(master, master.mesh.points + np.asarray(u[master.name]))
+    c = surface.closest(x)
+    return tri[c.face].astype(np.int64), c.bary
+
+
+def own_of(closed: NDArray[np.int64], own: dict[int, tuple]) -> dict[int, tuple]:
+    """``own`` renumbered from row indices to positions among ``closed``."""
+    where = {int(i): j for j, i in enumerate(closed)}
+    return {where[i]: a for i, a in own.items()}
+
+
+def end_anchors(
+    frame, rows: ContactRows, u: dict[str, NDArray], own: dict[int, tuple] | None = None
+) -> Anchors:
+    """Anchors of contacts ``rows`` where their slave nodes are at displacements ``u``.
+
+    A plane's is the node's projection on it; a body's the closest point of its deformed
+    surface (the facet and weights the measure finds). ``own`` maps a row to an anchor it
+    keeps instead (a contact that stuck).
+    """
+    own = own or {}
+    pairs = frame.pairs
+    k = len(rows)
+    facets = np.full((k, 3), -1, np.int64)
+    weights = np.zeros((k, 3))
+    points = np.full((k, 3), np.nan)
+    placed = rows.slave_points(pairs, u)
+    for i in np.unique(rows.pair):
+        pair = pairs[int(i)]
+        sel = np.flatnonzero(rows.pair == i)
+        nodes = rows.node[sel]
+        if pair.rigid:
+            points[sel] = pair.master.project(placed[sel]) - pair.master.motion
+        elif pair.mortar:
+            facets[sel], weights[sel] = master_points(pair, placed[sel], u)
+        else:
+            found = frame.measure_pair(int(i), u, frame.margin)
+            at = {int(n): j for j, n in enumerate(found.nodes)}
+            for r, n in zip(sel, nodes):
+                hit = at.get(int(n))
+                if hit is not None:
+                    facets[r] = found.facet[hit]
+                    weights[r] = found.weights[hit]
+                elif rows.m_nodes.shape[1] >= 3:
+                    facets[r] = rows.m_nodes[r, :3]  # out of reach: where its row was taken
+                    weights[r] = rows.m_coef[r, :3]
+    for r, (facet, w, point) in own.items():
+        facets[r], weights[r], points[r] = facet, w, point
+    return Anchors(
+        pair=np.array([pairs[int(i)].name for i in rows.pair], dtype=object),
+        node=rows.node.copy(),
+        facet=facets,
+        weights=weights,
+        point=points,
+        displacement={name: np.array(v, dtype=np.float64) for name, v in u.items()},
+        motion=frame.driven.positions(),
+        reference={b.name: b.mesh.points.copy() for b in frame.bodies},
+    )

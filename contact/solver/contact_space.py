@@ -31,14 +31,14 @@ from numpy.typing import NDArray
 import fem
 
 from . import contactset, held
-from .anchors import Anchors
+from .anchors import Anchors, end_anchors
 from .contactset import set_key
 from .coulomb import friction_state, unheld
 from .delassus import ContactSpace
 from .frame import FrameState
 from .results import FrameResult, IterationRecord
 from .rows import ContactRows
-from .tangential import Friction, end_anchors
+from .tangential import Friction
 
 __all__ = ["LCP_TOLERANCE", "solve_contact_space"]
 

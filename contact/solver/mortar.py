@@ -95,11 +95,13 @@ class MortarCoupling:
         Slave surface nodes with a row (a nonzero overlap area), sorted, in the numbering
         of the slave points (the volume mesh's).
     normals : ndarray, shape (s, 3)
-        Unit nodal normals of the slave surface: averages of its facets' normals weighted
-        by the row's overlap integrals ``int N_i dA`` over each facet (only the facets in
-        contact count: a node on the edge of a block's face keeps the face's normal),
-        pointing from the master into the slave (minus the slave's outward normal: the
-        sense of the node-to-surface rows' normal).
+        Each row's unit normal: the outward normals of the master facets it overlaps,
+        weighted by the row's overlap integrals ``int N_i dA`` over each, pointing from
+        the master into the slave (the sense of the node-to-surface rows' normal). The
+        master's, not the slave's: ``M`` is kept where it was integrated, and a gap
+        along the master's normal does not change when the slave slides along the
+        master, where one along a curved slave's normal would (a ball sliding down a
+        flat pad would wedge itself).
     d : scipy.sparse.csr_matrix, shape (s, n_slave_points)
         ``D_ij = int N_i^s N_j^s dA`` over the overlap (m^2).
     m : scipy.sparse.csr_matrix, shape (s, n_master_points)
@@ -397,12 +399,12 @@ def mortar_coupling(
                 cs, cm = s.conn[i], m.conn[j]
                 d, mm = _integrate(xs_all[cs], xm_all[cm], s, i, rule)
                 ks, km = cs.shape[1], cm.shape[1]
-                # the normal of a node: its facets' normals weighted by their overlap
-                # integrals int N_i dA, so that only the facets in contact count
+                # the normal of a row: the master facets' outward normals weighted by the
+                # row's overlap integrals int N_i dA over them
                 w = d.sum(axis=2).ravel()
                 for c in range(3):
                     ncov[:, c] += np.bincount(
-                        cs.ravel(), w * np.repeat(s.normal[i][:, c], ks), minlength=ns_pts
+                        cs.ravel(), w * np.repeat(m.normal[j][:, c], ks), minlength=ns_pts
                     )
                 dr.append(np.repeat(cs, ks, axis=1).ravel())
                 dc.append(np.tile(cs, (1, ks)).ravel())
@@ -423,7 +425,7 @@ def mortar_coupling(
     d_all, m_all = _csr(dr, dc, dv, ns_pts), _csr(mr, mc, mv, nm_pts)
     area_all = np.asarray(d_all.sum(axis=1)).ravel()
     nodes = np.flatnonzero((area_all > min_fraction * trib) & (trib > 0))
-    normals = -ncov[nodes] / np.linalg.norm(ncov[nodes], axis=1)[:, None]
+    normals = ncov[nodes] / np.linalg.norm(ncov[nodes], axis=1)[:, None]
     d, m = d_all[nodes], m_all[nodes]
     gap0 = np.einsum("si,si->s", normals, d @ xs_all - m @ xm_all)
     return MortarCoupling(nodes.astype(np.int64), normals, d, m, gap0, area_all[nodes])

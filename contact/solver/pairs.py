@@ -41,7 +41,7 @@ from ..geometry.surfacequery import (
 )
 from .body import ElasticBody
 
-__all__ = ["ContactPair", "Penetrations", "Survey", "measure"]
+__all__ = ["ContactPair", "Penetrations", "Survey", "displaced_surface", "measure"]
 
 
 @dataclass(frozen=True)
@@ -57,8 +57,8 @@ class ContactPair:
     mortar : bool
         Weighted (mortar) rows instead of node-to-surface rows: against a body
         (:mod:`contact.solver.mortar`) or a plane that is not force-driven
-        (:mod:`contact.solver.planemortar`, with friction on their weighted slip too);
-        between bodies frictionless only.
+        (:mod:`contact.solver.planemortar`). Friction acts on their weighted slip: the
+        row's weighted slave point against the master's point under it.
     friction : float
         Coulomb's coefficient ``mu >= 0`` of the pair (0: frictionless).
     """
@@ -72,8 +72,6 @@ class ContactPair:
         mu = self.friction
         if isinstance(mu, bool) or not isinstance(mu, (int, float)) or not 0.0 <= mu < np.inf:
             raise ValueError(f"{self.name}: friction = {mu!r} must be a finite number >= 0")
-        if mu and self.mortar and not isinstance(self.master, Plane):
-            raise ValueError(f"{self.name}: mortar rows between bodies take no friction")
         if self.mortar and isinstance(self.master, Plane) and self.master.force is not None:
             raise ValueError(f"{self.name}: mortar rows need a plane that is not force-driven")
 
@@ -255,7 +253,6 @@ def measure(
             np.broadcast_to(plane.normal, (k, 3)).copy(),
         ), None
     master: ElasticBody = pair.master  # type: ignore[assignment]
-    tri = master.contact_triangles
     xm = master.mesh.points + u[master.name]
     used = master.contact_nodes
     lo, hi = fem.bounding_box(xm[used])
@@ -271,17 +268,7 @@ def measure(
     if not ask.any():
         return Penetrations.empty(), _survey(u, nodes, used, pair, clear) if closed else None
     q_nodes, q = nodes[ask], xs[ask]
-    # an iterate may crush a few facets far from this contact to zero area (a ball pinned
-    # on planes before it has moved): they hold no area and no solid angle, so the
-    # queries go on without them
-    try:
-        surface = master.contact_surface.moved(xm)  # connectivity checked once
-        keep = ~surface.degenerate(10 * DEGENERATE_TOL)
-    except SurfaceError:  # a facet crushed below the surface's own tolerance
-        keep = ~degenerate_triangles(xm, tri, 10 * DEGENERATE_TOL)[2]
-    if not keep.all():
-        tri = tri[keep]
-        surface = TriangleSurface(xm, tri, name=f"{master.name} contact surface")
+    surface, tri = displaced_surface(master, xm)
     c = surface.closest(q)
     # inside: the side of the closest point's pseudo-normal (Baerentzen and Aanaes: exact
     # on a closed surface that does not overlap itself; on an open one, a pad's top, the
@@ -294,6 +281,27 @@ def measure(
         return p, None
     clear[ask] = np.where(inside, 0.0, c.distance)
     return p, _survey(u, nodes, used, pair, clear)
+
+
+def displaced_surface(
+    body: ElasticBody, x: NDArray[np.float64]
+) -> tuple[TriangleSurface, NDArray[np.int64]]:
+    """A body's contact surface at points ``x`` ``(N, 3)``, and its triangles.
+
+    An iterate may crush a few facets far from the contact to zero area (a ball pinned on
+    planes before it has moved, a soft block pressed flat): they hold no area and no
+    solid angle, so the queries go on without them.
+    """
+    tri = body.contact_triangles
+    try:
+        surface = body.contact_surface.moved(x)  # connectivity checked once
+        keep = ~surface.degenerate(10 * DEGENERATE_TOL)
+    except SurfaceError:  # a facet crushed below the surface's own tolerance
+        keep = ~degenerate_triangles(x, tri, 10 * DEGENERATE_TOL)[2]
+    if not keep.all():
+        tri = tri[keep]
+        surface = TriangleSurface(x, tri, name=f"{body.name} contact surface")
+    return surface, tri
 
 
 def _survey(

@@ -24,10 +24,10 @@ from .mortar import mortar_coupling
 from .pairs import ContactPair, Penetrations
 from .planemortar import plane_rows
 
-__all__ = ["ContactRows", "MortarCandidates", "mortar_candidates"]
+__all__ = ["ContactRows", "MortarCandidates", "mortar_candidates", "pad_columns"]
 
 
-def _pad(a: NDArray, width: int, fill: float) -> NDArray:
+def pad_columns(a: NDArray, width: int, fill: float) -> NDArray:
     """``a`` (m, k) padded on the right to ``width`` columns with ``fill``."""
     if a.shape[1] == width:
         return a
@@ -39,7 +39,7 @@ def _pad(a: NDArray, width: int, fill: float) -> NDArray:
 def _stack(a: NDArray, b: NDArray, fill: float) -> NDArray:
     """Rows of ``a`` then ``b``, padded to the wider of the two."""
     w = max(a.shape[1], b.shape[1])
-    return np.concatenate([_pad(a, w, fill), _pad(b, w, fill)])
+    return np.concatenate([pad_columns(a, w, fill), pad_columns(b, w, fill)])
 
 
 @dataclass

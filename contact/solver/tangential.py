@@ -12,15 +12,17 @@ anchor and one that slipped is anchored where it ended.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 from numpy.typing import NDArray
 
-from .anchors import Anchors
+from .anchors import Anchors, end_anchors, master_points, own_of
 from .delassus import BodyState, ContactSpace
 from .friction import STICK, FrictionResult, solve_friction
-from .rows import ContactRows
+from .rows import ContactRows, pad_columns
 
-__all__ = ["Friction", "couples", "end_anchors", "friction_zone", "tangent_basis"]
+__all__ = ["Friction", "couples", "friction_zone", "tangent_basis"]
 
 _Key = tuple[int, int]
 
@@ -113,6 +115,7 @@ class Friction:
                 if i is not None and self.base[i] > 0:
                     key = (i, int(anchors.node[k]))
                     self.anchor[key] = (anchors.facet[k], anchors.weights[k], anchors.point[k])
+        self.offsets: dict[_Key, NDArray[np.float64]] = {}
         self.iterations = 0
         self.system: tuple | None = None
 
@@ -149,6 +152,9 @@ class Friction:
                 motion = self.motion.get(plane.name, plane.motion)
                 point = plane.moved(motion).project(x[None])[0] - motion
                 self.anchor[key] = (np.full(3, -1, np.int64), np.zeros(3), point)
+            elif pair.mortar:
+                facet, w = master_points(pair, x[None], u)
+                self.anchor[key] = (facet[0], w[0], np.full(3, np.nan))
             else:
                 self.anchor[key] = (
                     rows.m_nodes[i, :3].copy(), rows.m_coef[i, :3].copy(), np.full(3, np.nan)
@@ -183,6 +189,44 @@ class Friction:
             else:
                 out[j] = w @ master.mesh.points[facet]
         return out
+
+    def _weighted(self, key: _Key) -> bool:
+        """Whether contact ``key`` is a weighted (mortar) row against a body."""
+        pair = self.frame.pairs[key[0]]
+        return bool(pair.mortar and not pair.rigid)
+
+    def _master_points(self, rows: ContactRows, u: Mapping[str, NDArray] | None = None):
+        """Weighted rows' master points ``sum_k b_k x_k`` ``(m, 3)``, at rest or displaced."""
+        out = np.zeros((len(rows), 3))
+        for i in np.unique(rows.pair):
+            sel = rows.pair == i
+            master = self.frame.pairs[int(i)].master
+            x = master.mesh.points
+            if u is not None:
+                x = x + np.asarray(u[master.name]).reshape(-1, 3)
+            nodes, used = rows.m_nodes[sel], rows.m_nodes[sel] >= 0
+            coef = np.where(used, rows.m_coef[sel], 0.0)
+            out[sel] = np.einsum("rk,rkd->rd", coef, x[np.where(used, nodes, 0)])
+        return out
+
+    def _offset(self, key: _Key, rows: ContactRows, j: int) -> NDArray[np.float64]:
+        """Where a weighted row's anchor sat from the master's weighted point at the start.
+
+        Friction acts on the weighted slip (Popp and Wall): the slave's weighted point
+        against the master's, ``sum_k b_k x_k``, so that a uniform traction is spread on
+        the master as the mortar spreads the pressure. Its stick anchor is kept as the
+        master's material point it sat on; the frame measures the slip from that point's
+        offset to the master's weighted point where the frame started.
+        """
+        got = self.offsets.get(key)
+        if got is None:
+            start = self.start()
+            facet, w, _ = self.anchor[key]
+            master = self.frame.pairs[key[0]].master
+            x = master.mesh.points[facet] + start[master.name][facet]
+            got = w @ x - self._master_points(rows.select(np.arange(len(rows)) == j), start)[0]
+            self.offsets[key] = got
+        return got
 
     # ------------------------------------------------------------------ rows
     def one_way(self, rows: ContactRows, start: NDArray[np.float64] | None) -> None:
@@ -235,10 +279,23 @@ class Friction:
         tangent[fr_idx] = k + np.arange(2 * kf).reshape(kf, 2)
         t1, t2 = tangent_basis(rows.normal[fr_idx])
         dirs = np.stack([t1, t2], axis=1).reshape(-1, 3)
-        offset = rows.select(fr_idx).slave_points(self.frame.pairs) - self._anchor_points(keys)
+        picked = rows.select(fr_idx)
+        offset = picked.slave_points(self.frame.pairs) - self._anchor_points(keys)
+        facets = np.array([self.anchor[key][0] for key in keys], dtype=np.int64).reshape(-1, 3)
+        weights = np.array([self.anchor[key][1] for key in keys]).reshape(-1, 3)
+        weighted = np.array([self._weighted(key) for key in keys], dtype=bool)
+        if weighted.any():
+            # weighted rows between bodies: the master's weighted point, offset by where
+            # the anchor sat from it when the frame started
+            w = np.flatnonzero(weighted)
+            sub = picked.select(weighted)
+            offset[w] = sub.slave_points(self.frame.pairs) - self._master_points(sub)
+            offset[w] -= [self._offset(keys[j], sub, n) for n, j in enumerate(w)]
+            width = max(3, sub.m_nodes.shape[1])
+            facets, weights = pad_columns(facets, width, -1), pad_columns(weights, width, 0.0)
+            facets[w] = pad_columns(sub.m_nodes, width, -1)
+            weights[w] = pad_columns(sub.m_coef, width, 0.0)
         g0 = np.einsum("mj,mkj->mk", offset, np.stack([t1, t2], axis=1)).ravel()
-        facets = np.array([self.anchor[key][0] for key in keys], dtype=np.int64)
-        weights = np.array([self.anchor[key][1] for key in keys])
         tangential = ContactRows(
             np.repeat(rows.pair[fr_idx], 2),
             np.repeat(rows.node[fr_idx], 2),
@@ -357,56 +414,3 @@ class Friction:
             if status[i] == 1 and tangent[i, 0] >= 0 and key in self.anchor:
                 own[int(i)] = self.anchor[key]
         return end_anchors(self.frame, rows.select(status > 0), u, own_of(closed, own))
-
-
-def own_of(closed: NDArray[np.int64], own: dict[int, tuple]) -> dict[int, tuple]:
-    """``own`` renumbered from row indices to positions among ``closed``."""
-    where = {int(i): j for j, i in enumerate(closed)}
-    return {where[i]: a for i, a in own.items()}
-
-
-def end_anchors(
-    frame, rows: ContactRows, u: dict[str, NDArray], own: dict[int, tuple] | None = None
-) -> Anchors:
-    """Anchors of contacts ``rows`` where their slave nodes are at displacements ``u``.
-
-    A plane's is the node's projection on it; a body's the closest point of its deformed
-    surface (the facet and weights the measure finds). ``own`` maps a row to an anchor it
-    keeps instead (a contact that stuck).
-    """
-    own = own or {}
-    pairs = frame.pairs
-    k = len(rows)
-    facets = np.full((k, 3), -1, np.int64)
-    weights = np.zeros((k, 3))
-    points = np.full((k, 3), np.nan)
-    placed = rows.slave_points(pairs, u)
-    for i in np.unique(rows.pair):
-        pair = pairs[int(i)]
-        sel = np.flatnonzero(rows.pair == i)
-        nodes = rows.node[sel]
-        if pair.rigid:
-            points[sel] = pair.master.project(placed[sel]) - pair.master.motion
-        else:
-            found = frame.measure_pair(int(i), u, frame.margin)
-            at = {int(n): j for j, n in enumerate(found.nodes)}
-            for r, n in zip(sel, nodes):
-                hit = at.get(int(n))
-                if hit is not None:
-                    facets[r] = found.facet[hit]
-                    weights[r] = found.weights[hit]
-                elif rows.m_nodes.shape[1] >= 3:
-                    facets[r] = rows.m_nodes[r, :3]  # out of reach: where its row was taken
-                    weights[r] = rows.m_coef[r, :3]
-    for r, (facet, w, point) in own.items():
-        facets[r], weights[r], points[r] = facet, w, point
-    return Anchors(
-        pair=np.array([pairs[int(i)].name for i in rows.pair], dtype=object),
-        node=rows.node.copy(),
-        facet=facets,
-        weights=weights,
-        point=points,
-        displacement={name: np.array(v, dtype=np.float64) for name, v in u.items()},
-        motion=frame.driven.positions(),
-        reference={b.name: b.mesh.points.copy() for b in frame.bodies},
-    )
