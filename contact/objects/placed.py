@@ -33,7 +33,9 @@ from ..solver.body import ElasticBody
 from ..solver.pairs import ContactPair
 from .ball import Ball, nodal_pressure
 
-__all__ = ["SceneObject", "from_ball", "from_scene", "object_pairs", "plane_pairs"]
+__all__ = [
+    "SceneObject", "body_pairs", "from_ball", "from_scene", "object_pairs", "plane_pairs",
+]
 
 log = logging.getLogger(__name__)
 
@@ -210,21 +212,48 @@ def from_scene(spec: ObjectScene, mesh: fem.Mesh, where: str) -> SceneObject:
     )
 
 
-def object_pairs(a: ElasticBody, b: ElasticBody, mu: float) -> list[ContactPair]:
-    """The pairs of two objects: one mortar pair where frictionless, else rows both ways.
+def object_pairs(
+    a: ElasticBody, b: ElasticBody, mu: float, gaps: str = "nodal"
+) -> list[ContactPair]:
+    """The pairs of two bodies: one weighted (mortar) pair, or node rows both ways.
 
     Mortar rows pass the contact patch test (a uniform pressure across two blocks stays
-    uniform), which node-to-surface rows both ways do not; they take no friction. The
-    slave is the finer surface (the smaller median tributary area of a contact node).
+    uniform), which node-to-surface rows both ways do not. They are taken where the pair
+    is frictionless, and with friction too where ``gaps`` is ``"weighted"``
+    (:class:`~contact.solver.settings.ContactSettings`). The slave is the finer surface
+    (the smaller median tributary area of a contact node).
     """
-    if mu > 0:
+    if mu > 0 and gaps != "weighted":
         return [ContactPair(a, b, friction=mu), ContactPair(b, a, friction=mu)]
 
     def fineness(body: ElasticBody) -> float:
         return float(np.median(body.node_areas[body.contact_nodes]))
 
     slave, master = (a, b) if fineness(a) <= fineness(b) else (b, a)
-    return [ContactPair(slave, master, mortar=True)]
+    return [ContactPair(slave, master, mortar=True, friction=mu)]
+
+
+def body_pairs(
+    objects: Sequence[ElasticBody],
+    hand: ElasticBody | None,
+    friction: Callable[[str, str], float],
+    gaps: str = "nodal",
+) -> list[ContactPair]:
+    """Each object against the later ones, then the hand against each object.
+
+    ``friction(a, b)`` is a pair's coefficient (``"hand"`` for the hand). Objects meet
+    as :func:`object_pairs` says. The hand meets each object by node rows both ways,
+    whatever ``gaps`` says: its skin's facets (about 5 mm on a fingertip of 8 mm radius)
+    keep a weighted gap open where a fingertip is 1 mm into a ball by its nodes.
+    """
+    out = []
+    for i, a in enumerate(objects):
+        for b in objects[i + 1 :]:
+            out += object_pairs(a, b, friction(b.name, a.name), gaps)
+    for o in objects if hand is not None else ():
+        mu = friction("hand", o.name)
+        out += [ContactPair(o, hand, friction=mu), ContactPair(hand, o, friction=mu)]
+    return out
 
 
 def plane_pairs(

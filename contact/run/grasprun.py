@@ -46,7 +46,7 @@ from ..holding import fingertargets as ft
 from ..holding.fingerforce import FIRST_PRESS, drive
 from ..objects.ball import Ball, make_ball, nodal_pressure
 from ..objects.meshing import mesh_object
-from ..objects.placed import SceneObject, from_ball, from_scene, object_pairs, plane_pairs
+from ..objects.placed import SceneObject, body_pairs, from_ball, from_scene, plane_pairs
 from ..scene.model import PlaneScene
 from ..scene.spec import Scene
 from ..solver.anchors import Anchors
@@ -399,28 +399,23 @@ class GraspRun:
         t0 = time.perf_counter()
         objects = [self.object_body(o, t) for o in self.objects]
         bodies = list(objects)
-        pairs: list[ContactPair] = []
-        for i, a in enumerate(objects):  # each object against the later ones
-            for b in objects[i + 1 :]:
-                pairs += object_pairs(a, b, sc.friction(b.name, a.name))
+        settings = sc.solver.settings(self.limits)
         extra: dict = {}
+        hand = None
         if self.hand is not None:
             hand = self.hand_body(angles)
             if self._bones_at != t:
                 check_bones(self.hand, self._pose, objects, t, self._starts(t))  # type: ignore[arg-type]
                 self._bones_at = t
             bodies.append(hand)
-            for o in objects:
-                mu = sc.friction("hand", o.name)
-                pairs += [ContactPair(o, hand, friction=mu), ContactPair(hand, o, friction=mu)]
             extra["angles"] = angles
             if self.auto_flexed:
                 extra["auto_flexion"] = self.auto_flexed
             assert self._pose is not None
             extra["min_tet_quality"] = float(self._pose.min_quality)
         planes = [self._plane(p, t) for p in sc.planes]
-        settings = sc.solver.settings(self.limits)
-        pairs = plane_pairs(objects, planes, sc.friction, settings.gaps) + pairs
+        pairs = plane_pairs(objects, planes, sc.friction, settings.gaps)
+        pairs += body_pairs(objects, hand, sc.friction, settings.gaps)
         setup = time.perf_counter() - t0
         # steps 2 to 5
         if not self._started:

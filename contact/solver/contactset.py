@@ -117,7 +117,9 @@ class ContactSet:
         self.renewed: dict[int, dict[int, int]] = {}
         self.relinearised: dict[int, dict[int, int]] = {}
 
-    def near_band(self, pair: ContactPair, p: Penetrations, near: float) -> NDArray[np.float64]:
+    def near_band(
+        self, pair: ContactPair, nodes: NDArray[np.int64], gap: NDArray[np.float64], near: float
+    ) -> NDArray[np.float64]:
         """How far outside a node joins the first set, open (m, per node).
 
         ``near`` of its element size, or the pair's deepest overlap where that is more
@@ -127,10 +129,10 @@ class ContactSet:
         Against a rigid master (a plane) only the slave gives way, away from it: the
         nodes a press closes are inside it already, and the band is ``near`` alone.
         """
-        local = self.frame.local[pair.slave.name][p.nodes]
+        local = self.frame.local[pair.slave.name][nodes]
         if pair.rigid:
             return near * local
-        deepest = float(np.max(-p.gap, initial=0.0))
+        deepest = float(np.max(-gap, initial=0.0))
         return np.minimum(np.maximum(near * local, deepest), local)
 
     def new_rows(
@@ -195,7 +197,7 @@ class ContactSet:
             rows = rows.select(~self._left(rows, idle, u))
         for i, pair in enumerate(fr.pairs):
             if i in fr.mortar:
-                rows, n, d = self._mortar_rows(i, rows, dropped, u, touching)
+                rows, n, d = self._mortar_rows(i, rows, dropped, u, touching, near)
                 changed += n
                 depth = max(depth, d)
                 continue
@@ -219,7 +221,7 @@ class ContactSet:
             hit = fresh & (first_set(p.gap, tol) if touching else (p.gap < -tol))
             if touching and near > 0.0 and pair.wide_start:
                 # every node inside or near: the unilateral solve closes what must push
-                hit |= fresh & (p.gap < self.near_band(pair, p, near))
+                hit |= fresh & (p.gap < self.near_band(pair, p.nodes, p.gap, near))
             elif touching and near > 0.0:
                 # Hertz's patch and a ring, as the zone marks them: the patch ends about
                 # there, and the ring takes in what the discrete one has beyond it
@@ -328,8 +330,16 @@ class ContactSet:
         dropped: ContactRows,
         u: Mapping[str, NDArray],
         touching: bool,
+        near: float = 0.0,
     ) -> tuple[ContactRows, int, float]:
-        """New mortar rows of pair ``i``: weighted gaps closed or below the tolerance."""
+        """New mortar rows of pair ``i``: weighted gaps closed or below the tolerance.
+
+        With ``touching`` and ``near`` on a pair placed by its contacts, the first set
+        also holds the rows open by less than :meth:`near_band`: a weighted gap closes
+        only once the press passes the mean gap over the node's faces, so a ball that
+        rests on a table at one node has every row open, and the unilateral solve must
+        see them to let it settle onto them.
+        """
         pair, cand = self.frame.pairs[i], self.frame.mortar[i]
         u_m = np.zeros(0) if pair.rigid else u[pair.master.name]  # type: ignore[union-attr]
         g = cand.gaps(u[pair.slave.name], u_m)
@@ -339,6 +349,8 @@ class ContactSet:
             nodes, dropped.node[dropped.pair == i]
         )
         hit = fresh & (first_set(g, tol) if touching else (g < -tol))
+        if touching and near > 0.0 and pair.wide_start:
+            hit |= fresh & (g < self.near_band(pair, nodes, g, near))
         depth = float(np.max(-g, initial=0.0))
         if hit.any():
             rows = rows.joined(cand.rows.select(hit))

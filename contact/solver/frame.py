@@ -157,7 +157,7 @@ class FrameState:
             sel = slave_zone(slave.mesh.points, p.nodes, p.gap, first, local, ring)
             # and every node the first set holds (inside, or within the near band)
             if pair.wide_start:
-                sel |= p.gap < self.contacts.near_band(pair, p, contactset.NEAR)
+                sel |= p.gap < self.contacts.near_band(pair, p.nodes, p.gap, contactset.NEAR)
             near, gap = p.nodes[sel], p.gap[sel]
             if not near.size:
                 continue
@@ -380,7 +380,8 @@ class FrameState:
             if (eb := e.get(b.name)) is not None:
                 stiff += eb[:m].multiply(eb[:m]) @ b.stiffness.diagonal()
         small = 1e-10 * float(np.abs(rows.g0).max(initial=0.0)) * stiff
-        return held.touches_nothing(e, lam, gap, tol, moves, still, small)
+        rest = {b.name: rows.g0 < -tol for b in self.bodies if not b.loads.any()}
+        return held.touches_nothing(e, lam, gap, tol, moves, still, small, rest)
 
     def result(
         self,

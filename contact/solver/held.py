@@ -96,14 +96,18 @@ def touches_nothing(
     moves: Mapping[str, NDArray[np.float64]],
     still: Mapping[str, float],
     small: NDArray[np.float64] | None = None,
+    resting: Mapping[str, NDArray[np.bool_]] | None = None,
 ) -> str:
     """The stop reason of a free body that no contact pushes at the end, or "" if none.
 
     Such a body is held by nothing: frictionless contacts that do not enclose it pushed
     it away until they opened (any place further along balances too), or nothing ever
     touched it. A body that did not move and rests on contacts at zero force (nothing
-    loads it: two plates touching a ball before they press) is left alone. The reason
-    gives the body's rigid motion in the frame's solve.
+    loads it: two plates touching a ball before they press) is left alone; so is one
+    that nothing loads or presses into and that touches at the end, wherever the solve
+    placed it (weighted gaps are open where a ball touches a plate at one node: the
+    solve sets it onto the nearest, at zero force). The reason gives the body's rigid
+    motion in the frame's solve.
 
     Parameters
     ----------
@@ -122,16 +126,21 @@ def touches_nothing(
         Each free body's motion (m) below which it did not move.
     small : ndarray, shape (m,), optional
         Each row's force (N) at or below which it does not push: round-off (default 0).
+    resting : mapping of str to ndarray of bool, optional
+        The free bodies that nothing loads, each with the rows (m,) that pressed into it
+        at the start (their linearised gap below the tolerance's negative).
     """
     m = lam.size
     small = np.zeros(m) if small is None else small
+    resting = resting or {}
     for name, move in moves.items():
         eb = e.get(name)
         mine = eb[:m].getnnz(axis=1) > 0 if eb is not None and m else np.zeros(m, bool)
         if (mine & (lam > small)).any():
             continue
         dist = float(np.linalg.norm(move))
-        if dist <= still[name] and (mine & (gap <= tol)).any():
+        rests = name in resting and not (mine & resting[name]).any()
+        if (dist <= still[name] or rests) and (mine & (gap <= tol)).any():
             continue
         d = move / dist if dist > 0 else np.zeros(3)
         return (

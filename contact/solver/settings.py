@@ -18,7 +18,7 @@ __all__ = ["ALGORITHMS", "GAPS", "RELAXATIONS", "ContactSettings"]
 ALGORITHMS = ("contact-space", "seed")
 #: Relaxations of the seed loop.
 RELAXATIONS = ("none", "fixed", "aitken")
-#: How a body's gaps to a plane are measured: at its nodes, or weighted over its faces.
+#: How an object's gaps are measured: at its nodes, or weighted over its faces.
 GAPS = ("nodal", "weighted")
 
 
@@ -49,10 +49,11 @@ class ContactSettings:
     relaxation_factor : float
         The fixed factor, and Aitken's first one, in (0, 1].
     gaps : {"nodal", "weighted"}
-        How a body's gaps to a plane that is not force-driven are measured:
-        at its surface nodes, or weighted over its faces on its smoothed surface
+        How an object's gaps are measured: at its surface nodes, or weighted over its
+        faces, against a plane that is not force-driven on its smoothed surface
         (:mod:`contact.solver.planemortar`), which resolves a patch smaller than the
-        faces. Other pairs keep their rows.
+        faces, and against another object by one mortar pair, with friction too
+        (:mod:`contact.solver.mortar`). The hand keeps its node rows.
     support_limits : mapping of str to float, optional
         Largest force (N) each support group (bone) may carry; a frame whose force passes
         it is reported over the limit (``FrameResult.over_limit``), its solve unchanged.

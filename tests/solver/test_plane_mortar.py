@@ -6,12 +6,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 
 import fem
 from benchmarks import plates
 from contact.geometry.plane import Plane
 from contact.grasp import main
-from contact.solver import solve_frame
+from contact.solver import held, solve_frame
 from contact.solver.body import ElasticBody
 from contact.solver.pairs import ContactPair
 from contact.solver.planemortar import corner_normals, plane_rows
@@ -178,3 +179,36 @@ def test_the_scene_key_weighs_the_plates_gaps(tmp_path):
               for k, v in forces.items()}  # fmt: skip
     assert max(abs(e) for e in errors["weighted"]) < 0.05, errors
     assert abs(errors["nodal"][0]) > 0.1, errors  # node rows: 17 % under at 0.6 mm
+
+
+def test_a_ball_resting_on_a_table_at_one_node_settles_onto_its_weighted_rows():
+    """Every weighted row is open where a coarse ball touches at one node: the first set
+    takes them as candidates, and the ball's weight closes what it must."""
+    made = plates.ball("hex", 0.006)
+    mat = fem.LinearElastic(E, NU, 1000.0)
+    weight = fem.gravity_load(made.mesh, mat, (0.0, 0.0, -9.81))
+    ball = ElasticBody("ball", made.mesh, made.materials, loads=weight)
+    table = Plane((0, 0, 0), (0, 0, 1), name="table")
+    res = solve_frame([ball], [ContactPair(ball, table, mortar=True)], [table])
+    assert res.converged and res.held, res.stop_reason
+    assert res.obstacle_forces["table"][2] == pytest.approx(weight[2::3].sum(), rel=1e-10)
+    assert res.displacement["ball"][:, 2].max() < 0  # it settled onto them
+
+
+def test_an_unloaded_body_set_onto_its_rows_at_zero_force_rests():
+    """A free body nothing loads nor presses into, that the solve set onto an open row (a
+    ball in a bowl whose weighted gaps are open where it touches at one node), at zero
+    force: at rest, wherever it was set. One that a row pressed into and that then
+    opened was pushed away."""
+    e = {"ball": sp.csr_matrix(np.ones((2, 3)))}
+    lam, gap, tol = np.zeros(2), np.array([0.0, 1e-4]), np.full(2, 1e-6)
+    moves, still = {"ball": np.array([0.0, 0.0, -8.6e-5])}, {"ball": 6e-6}
+    assert held.touches_nothing(e, lam, gap, tol, moves, still) != ""
+    rest = {"ball": np.array([False, False])}
+    assert held.touches_nothing(e, lam, gap, tol, moves, still, resting=rest) == ""
+    pressed = {"ball": np.array([True, False])}
+    assert held.touches_nothing(e, lam, gap, tol, moves, still, resting=pressed).startswith(
+        "not held: ball touches nothing (moved 0.086 mm along (0.000, 0.000, -1.000))"
+    )
+    # open at the end: it touches nothing, loaded or not
+    assert held.touches_nothing(e, lam, gap + 1e-5, tol, moves, still, resting=rest) != ""
