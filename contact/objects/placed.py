@@ -243,8 +243,9 @@ def body_pairs(
 
     ``friction(a, b)`` is a pair's coefficient (``"hand"`` for the hand). Objects meet
     as :func:`object_pairs` says. The hand meets each object by node rows both ways,
-    whatever ``gaps`` says: its skin's facets (about 5 mm on a fingertip of 8 mm radius)
-    keep a weighted gap open where a fingertip is 1 mm into a ball by its nodes.
+    whatever ``gaps`` says: its skin's nodes (about 5 mm apart on a fingertip of 8 mm
+    radius) are wider than a press's patch, and a weighted gap stays open where a
+    fingertip is 0.5 mm into a ball by its nodes.
     """
     out = []
     for i, a in enumerate(objects):

@@ -27,6 +27,14 @@ the coupling inconsistent with the bodies: the contact patch test of two hex blo
 fails by 8 to 15 % of the pressure. Pass ``ElasticBody.contact_faces``, not its
 ``contact_triangles``.
 
+The gap is measured between the two surfaces smoothed through their nodal normals
+(:mod:`contact.solver.smoothing`): ``g0`` gains ``n_i . int N_i^s (b_s - b_m) dA``, each
+surface's bulge ``b`` off its flat facet at the paired points, while the displacements
+still enter through the facets' shape functions. A coarse mesh's facets lie inside the
+curved surface they stand for by their sagitta, as much as a small press: a ball of 6 mm
+bricks pressed 1 mm onto a block is 37 % under Hertz by flat facets, 3.5 % over smoothed
+(``tests/solver/test_mortar_hertz.py``). Flat faces and sharp edges stay as meshed.
+
 On flat faces the integration is exact: ``D 1 = M 1 = (int N_i^s)_i`` (the row areas),
 ``sum(D) = sum(M)`` = the covered slave area, and linear fields pass from master to slave
 exactly (``D^-1 M x_m = x_s``): the contact patch test is passed (two blocks with
@@ -72,6 +80,8 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
 from fem.elements import TRI_RULE5
+
+from .smoothing import bulge, corner_normals
 
 __all__ = ["MortarCoupling", "mortar_coupling"]
 
@@ -305,11 +315,19 @@ def _shape(facet: NDArray, x: NDArray) -> NDArray:
 
 
 def _integrate(
-    xs: NDArray, xm: NDArray, s: _Facets, i: NDArray, rule: tuple[NDArray, NDArray]
-) -> tuple[NDArray, NDArray]:
-    """Local ``D`` (P, ks, ks) and ``M`` (P, ks, km) of slave facets ``i`` against masters.
+    xs: NDArray,
+    xm: NDArray,
+    s: _Facets,
+    i: NDArray,
+    rule: tuple[NDArray, NDArray],
+    corners: tuple[NDArray, NDArray] | None = None,
+) -> tuple[NDArray, NDArray, NDArray]:
+    """Local ``D`` (P, ks, ks), ``M`` (P, ks, km) and bulge (P, ks, 3) of slave facets ``i``.
 
-    ``xs`` (P, ks, 3) and ``xm`` (P, km, 3) are the facets' vertices.
+    ``xs`` (P, ks, 3) and ``xm`` (P, km, 3) are the facets' vertices. With ``corners``
+    (their corner normals, (P, ks, 3) and (P, km, 3)), the bulge is
+    ``int N_i (b_s - b_m) dA``: how far the smoothed surfaces lie from the flat facets
+    (:func:`contact.solver.smoothing.bulge`), zero without.
     """
     c, t1, t2 = s.centre[i][:, None], s.t1[i][:, None], s.t2[i][:, None]
     ps = np.stack([((xs - c) * t1).sum(-1), ((xs - c) * t2).sum(-1)], axis=-1)
@@ -330,12 +348,16 @@ def _integrate(
     ns, nm = _shape(ps[at], pts), _shape(pm[at], pts)
     d = np.zeros((len(i), ps.shape[1], ps.shape[1]))
     m = np.zeros((len(i), ps.shape[1], pm.shape[1]))
+    lifted = np.zeros((len(i), ps.shape[1], 3))
     if at.size:
         start = np.flatnonzero(np.r_[True, at[1:] != at[:-1]])
         wns = wq[:, None] * ns
         d[at[start]] = np.add.reduceat(wns[:, :, None] * ns[:, None, :], start)
         m[at[start]] = np.add.reduceat(wns[:, :, None] * nm[:, None, :], start)
-    return d, m
+        if corners is not None:
+            b = bulge(xs[at], corners[0][at], ns) - bulge(xm[at], corners[1][at], nm)
+            lifted[at[start]] = np.add.reduceat(wns[:, :, None] * b[:, None, :], start)
+    return d, m, lifted
 
 
 def mortar_coupling(
@@ -346,6 +368,7 @@ def mortar_coupling(
     *,
     search: float,
     min_fraction: float = 1e-13,
+    smooth: bool = True,
 ) -> MortarCoupling:
     """Mortar integrals ``D`` and ``M`` of a slave surface against a master surface.
 
@@ -367,6 +390,11 @@ def mortar_coupling(
     min_fraction : float
         Rows whose overlap area is at most this fraction of the node's tributary area on
         the slave surface (clipping round-off) are dropped.
+    smooth : bool
+        Measure the gaps between both surfaces smoothed through their nodal normals
+        (:mod:`contact.solver.smoothing`; default), so that a coarse mesh's facets do
+        not hide a press as deep as their sagitta; the displacements still enter through
+        the facets' shape functions. Flat faces and sharp edges stay as meshed.
 
     Returns
     -------
@@ -379,8 +407,13 @@ def mortar_coupling(
     if not search >= 0:
         raise ValueError(f"search must be a non-negative distance, got {search}")
     ns_pts, nm_pts = len(xs_all), len(xm_all)
-    slaves = [_Facets.of(xs_all, b, "slave") for b in _blocks(slave_facets, "slave")]
-    masters = [_Facets.of(xm_all, b, "master") for b in _blocks(master_facets, "master")]
+    s_blocks, m_blocks = _blocks(slave_facets, "slave"), _blocks(master_facets, "master")
+    slaves = [_Facets.of(xs_all, b, "slave") for b in s_blocks]
+    masters = [_Facets.of(xm_all, b, "master") for b in m_blocks]
+    s_corner = m_corner = None
+    if smooth:
+        s_corner = list(corner_normals(xs_all, dict(enumerate(s_blocks))).values())
+        m_corner = list(corner_normals(xm_all, dict(enumerate(m_blocks))).values())
     # tributary areas over the whole slave surface
     trib = np.zeros(ns_pts)
     for s in slaves:
@@ -389,15 +422,21 @@ def mortar_coupling(
             s.conn.ravel(), np.repeat(np.linalg.norm(s.vector_area, axis=1) / k, k), ns_pts
         )
     ncov = np.zeros((ns_pts, 3))
+    lift = np.zeros((ns_pts, 3))
     dr, dc, dv, mr, mc, mv = [], [], [], [], [], []
-    for s in slaves:
-        for m in masters:
+    for a, s in enumerate(slaves):
+        for b, m in enumerate(masters):
             i_all, j_all = _candidates(s, m, float(search))
-            rule = _RULE2 if s.conn.shape[1] == m.conn.shape[1] == 3 else _RULE5
+            # degree 2 is exact for products of linears; the smoothed bulge is quadratic
+            flat = s.conn.shape[1] == m.conn.shape[1] == 3 and not smooth
+            rule = _RULE2 if flat else _RULE5
             for lo in range(0, len(i_all), _CHUNK):
                 i, j = i_all[lo : lo + _CHUNK], j_all[lo : lo + _CHUNK]
                 cs, cm = s.conn[i], m.conn[j]
-                d, mm = _integrate(xs_all[cs], xm_all[cm], s, i, rule)
+                corners = None if s_corner is None else (s_corner[a][i], m_corner[b][j])  # type: ignore[index]
+                d, mm, bl = _integrate(xs_all[cs], xm_all[cm], s, i, rule, corners)
+                for c in range(3):
+                    lift[:, c] += np.bincount(cs.ravel(), bl[..., c].ravel(), minlength=ns_pts)
                 ks, km = cs.shape[1], cm.shape[1]
                 # the normal of a row: the master facets' outward normals weighted by the
                 # row's overlap integrals int N_i dA over them
@@ -427,5 +466,5 @@ def mortar_coupling(
     nodes = np.flatnonzero((area_all > min_fraction * trib) & (trib > 0))
     normals = ncov[nodes] / np.linalg.norm(ncov[nodes], axis=1)[:, None]
     d, m = d_all[nodes], m_all[nodes]
-    gap0 = np.einsum("si,si->s", normals, d @ xs_all - m @ xm_all)
+    gap0 = np.einsum("si,si->s", normals, d @ xs_all - m @ xm_all + lift[nodes])
     return MortarCoupling(nodes.astype(np.int64), normals, d, m, gap0, area_all[nodes])

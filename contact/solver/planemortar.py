@@ -18,7 +18,8 @@ coarse mesh's facets lie inside the curved surface they stand for, by ``h^2 / 8R
 facet's middle, as much as a small press: on the flat facets a weighted gap would see
 that sagitta and close late; on the smoothed surface, with ``alpha = 1/2`` exact to
 second order on a sphere, the press is the curved body's (``benchmarks/results/plates.md``
-compares both with node rows against Hertz). Faces meeting at more than :data:`CREASE`
+compares both with node rows against Hertz). Faces meeting at more than
+:data:`contact.solver.smoothing.CREASE`
 keep their own normals there: a block's edge stays sharp, its flat faces stay flat (the
 contact patch test is passed exactly: a uniform pressure gives each node its consistent
 load ``p A_i``).
@@ -41,71 +42,9 @@ from numpy.typing import NDArray
 from fem.elements import face_quadrature
 
 from ..geometry.plane import Plane
+from .smoothing import corner_normals, face_cross, smoothed
 
-__all__ = ["CREASE", "PlaneRows", "corner_normals", "plane_rows"]
-
-#: Faces whose normals differ by more than this (degrees) meet at a crease: no smoothing.
-CREASE = 40.0
-#: Phong tessellation's blend: 1/2 is exact to second order on a sphere.
-ALPHA = 0.5
-
-def _face_cross(x: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Normals of faces ``(F, k, 3)`` twice their areas long (quads by their diagonals)."""
-    if x.shape[1] == 3:
-        return np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
-    return np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])
-
-
-def corner_normals(
-    points: NDArray[np.float64], faces: dict[str, NDArray[np.int64]], crease: float = CREASE
-) -> dict[str, NDArray[np.float64]]:
-    """Each face corner's smoothed unit normal, ``(F, k, 3)`` per face kind.
-
-    The mean of the normals of the faces around the corner's node that lie within
-    ``crease`` degrees of the corner's own face, weighted by those faces' areas.
-    """
-    kinds = [k for k, f in faces.items() if len(f)]
-    normals, areas, corner_face, corner_node = [], [], [], []
-    base = 0
-    for k in kinds:
-        f = faces[k]
-        c = _face_cross(points[f])
-        a = np.linalg.norm(c, axis=1)
-        normals.append(c / np.maximum(a, 1e-300)[:, None])
-        areas.append(a)
-        corner_face.append(np.repeat(np.arange(len(f)) + base, f.shape[1]))
-        corner_node.append(f.ravel())
-        base += len(f)
-    if not kinds:
-        return {}
-    nf, af = np.concatenate(normals), np.concatenate(areas)
-    cf, cn = np.concatenate(corner_face), np.concatenate(corner_node)
-    # the faces around each node, as CSR over the nodes
-    order = np.argsort(cn, kind="stable")
-    starts = np.searchsorted(cn[order], np.arange(len(points) + 1))
-    count = np.diff(starts)[cn]  # faces around each corner's node
-    corner = np.repeat(np.arange(cn.size), count)
-    offset = np.arange(corner.size) - np.repeat(np.cumsum(count) - count, count)
-    other = cf[order[starts[cn[corner]] + offset]]
-    near = np.einsum("ij,ij->i", nf[cf[corner]], nf[other]) >= np.cos(np.radians(crease))
-    acc = np.zeros((cn.size, 3))
-    np.add.at(acc, corner[near], af[other[near], None] * nf[other[near]])
-    acc /= np.maximum(np.linalg.norm(acc, axis=1), 1e-300)[:, None]
-    out, start = {}, 0
-    for k in kinds:
-        f = faces[k]
-        out[k] = acc[start : start + f.size].reshape(*f.shape, 3)
-        start += f.size
-    return out
-
-
-def _smoothed(x: NDArray, corner_n: NDArray, n: NDArray) -> NDArray[np.float64]:
-    """Phong-smoothed points at shape-function values ``n`` (q, k) on faces ``x`` (F, k, 3)."""
-    flat = np.einsum("qk,fkd->fqd", n, x)  # (F, q, 3)
-    rel = flat[:, :, None, :] - x[:, None, :, :]  # (F, q, k, 3)
-    off = np.einsum("fqkd,fkd->fqk", rel, corner_n)[..., None] * corner_n[:, None]  # (F,q,k,3)
-    return flat - ALPHA * np.einsum("qk,fqkd->fqd", n, off)
-
+__all__ = ["PlaneRows", "plane_rows"]
 
 @dataclass(frozen=True)
 class PlaneRows:
@@ -176,7 +115,7 @@ def _integrals(
     for kind, f in faces.items():
         if not len(f):
             continue
-        facing = _face_cross(points[f]) @ normal < 0.0
+        facing = face_cross(points[f]) @ normal < 0.0
         if not facing.any():
             continue
         f, cn = f[facing], corner[kind][facing]
@@ -184,7 +123,7 @@ def _integrals(
         n, dn, w = face_quadrature(f.shape[1], degree=5)
         xa, xb = np.einsum("qk,fkd->fqd", dn[..., 0], x), np.einsum("qk,fkd->fqd", dn[..., 1], x)
         jw = np.linalg.norm(np.cross(xa, xb), axis=-1) * w[None]  # (F, q)
-        smooth = _smoothed(x, cn, n)  # (F, q, 3)
+        smooth = smoothed(x, cn, n)  # (F, q, 3)
         k = f.shape[1]
         m = np.einsum("fq,qi,qj->fij", jw, n, n)  # (F, k, k)
         rows.append(np.repeat(f, k, axis=1).ravel())

@@ -15,7 +15,8 @@ from contact.grasp import main
 from contact.solver import held, solve_frame
 from contact.solver.body import ElasticBody
 from contact.solver.pairs import ContactPair
-from contact.solver.planemortar import corner_normals, plane_rows
+from contact.solver.planemortar import plane_rows
+from contact.solver.smoothing import corner_normals
 from fem.elements import face_quadrature
 
 E, NU = 1.0e6, 0.45
