@@ -2,29 +2,18 @@
 (stiff) block by a plate meets Hertz as against a plane, whichever body is the slave, where
 the flat facets' weighted gaps close late (contact.solver.mortar, smoothing)."""
 
-import numpy as np
 import pytest
 
-import fem
 from benchmarks import plates
 from contact.geometry.plane import Plane
 from contact.solver import mortar, rows, solve_frame
-from contact.solver.body import ElasticBody
 from contact.solver.pairs import ContactPair
 
 R = 0.02
 
 
-def _block(size):
-    """A 60 x 60 x 10 mm block under the ball, its bottom fixed, 1000 times stiffer."""
-    n = round(0.06 / size)
-    mesh = fem.box_mesh((0.06, 0.06, 0.01), (n, n, 2), origin=(-0.03, -0.03, -0.01))
-    fixed = fem.node_dofs(np.flatnonzero(np.isclose(mesh.points[:, 2], -0.01)), [0, 1, 2])
-    return ElasticBody("block", mesh, fem.LinearElastic(1e9, 0.3), prescribed=fixed)
-
-
 def _force(size, press, ball_slave):
-    ball, block = plates.ball("hex", size), _block(size)
+    ball, block = plates.ball("hex", size), plates.block(size)
     plate = Plane((0, 0, 2 * R), (0, 0, -1), motion=(0, 0, -press), name="plate")
     pair = ContactPair(ball, block, mortar=True)
     if not ball_slave:
