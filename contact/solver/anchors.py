@@ -1,8 +1,9 @@
 """Stick anchors: where each frictional contact stuck, the only history friction carries.
 
 Quasi-static Coulomb friction acts on a frame's slip increment: the slave node's motion
-relative to the master's material point it stuck to at the end of the previous frame (a
-facet and barycentric weights, or a point of a plane, which moves with the plane).
+(a weighted row's weighted point's) relative to the master's material point it stuck to
+at the end of the previous frame (a facet and barycentric weights, or a point of a
+plane, which moves with the plane).
 """
 
 from __future__ import annotations

@@ -410,10 +410,9 @@ def mortar_coupling(
     s_blocks, m_blocks = _blocks(slave_facets, "slave"), _blocks(master_facets, "master")
     slaves = [_Facets.of(xs_all, b, "slave") for b in s_blocks]
     masters = [_Facets.of(xm_all, b, "master") for b in m_blocks]
-    s_corner = m_corner = None
-    if smooth:
-        s_corner = list(corner_normals(xs_all, dict(enumerate(s_blocks))).values())
-        m_corner = list(corner_normals(xm_all, dict(enumerate(m_blocks))).values())
+    # each block's corner normals, to measure the gaps between the smoothed surfaces
+    s_corner = list(corner_normals(xs_all, dict(enumerate(s_blocks))).values())
+    m_corner = list(corner_normals(xm_all, dict(enumerate(m_blocks))).values())
     # tributary areas over the whole slave surface
     trib = np.zeros(ns_pts)
     for s in slaves:
@@ -433,7 +432,7 @@ def mortar_coupling(
             for lo in range(0, len(i_all), _CHUNK):
                 i, j = i_all[lo : lo + _CHUNK], j_all[lo : lo + _CHUNK]
                 cs, cm = s.conn[i], m.conn[j]
-                corners = None if s_corner is None else (s_corner[a][i], m_corner[b][j])  # type: ignore[index]
+                corners = (s_corner[a][i], m_corner[b][j]) if smooth else None
                 d, mm, bl = _integrate(xs_all[cs], xm_all[cm], s, i, rule, corners)
                 for c in range(3):
                     lift[:, c] += np.bincount(cs.ravel(), bl[..., c].ravel(), minlength=ns_pts)

@@ -118,15 +118,31 @@ class ContactRows:
         A node row's node, a weighted row's weighted mean of its nodes; at rest, or
         displaced by ``u`` (each body's ``(N, 3)``).
         """
+        return self._points(pairs, u, slave=True)
+
+    def master_points(
+        self, pairs: Sequence[ContactPair], u: Mapping[str, NDArray] | None = None
+    ) -> NDArray[np.float64]:
+        """Each row's master point ``sum_k b_k x_k``, ``(m, 3)``, its pair's master a body.
+
+        A node row's closest point, a weighted row's weighted mean of the master's nodes
+        under it; at rest, or displaced by ``u``.
+        """
+        return self._points(pairs, u, slave=False)
+
+    def _points(
+        self, pairs: Sequence[ContactPair], u: Mapping[str, NDArray] | None, slave: bool
+    ) -> NDArray[np.float64]:
         out = np.zeros((len(self), 3))
+        nodes_all, coef_all = (self.s_nodes, self.s_coef) if slave else (self.m_nodes, self.m_coef)
         for i in np.unique(self.pair):
             sel = self.pair == i
-            body = pairs[int(i)].slave
-            x = body.mesh.points
+            body = pairs[int(i)].slave if slave else pairs[int(i)].master
+            x = body.mesh.points  # type: ignore[union-attr]
             if u is not None:
                 x = x + np.asarray(u[body.name]).reshape(-1, 3)
-            nodes, used = self.s_nodes[sel], self.s_nodes[sel] >= 0
-            coef = np.where(used, self.s_coef[sel], 0.0)
+            nodes, used = nodes_all[sel], nodes_all[sel] >= 0
+            coef = np.where(used, coef_all[sel], 0.0)
             out[sel] = np.einsum("rk,rkd->rd", coef, x[np.where(used, nodes, 0)])
         return out
 

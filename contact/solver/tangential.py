@@ -12,8 +12,6 @@ anchor and one that slipped is anchored where it ended.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-
 import numpy as np
 from numpy.typing import NDArray
 
@@ -195,38 +193,27 @@ class Friction:
         pair = self.frame.pairs[key[0]]
         return bool(pair.mortar and not pair.rigid)
 
-    def _master_points(self, rows: ContactRows, u: Mapping[str, NDArray] | None = None):
-        """Weighted rows' master points ``sum_k b_k x_k`` ``(m, 3)``, at rest or displaced."""
-        out = np.zeros((len(rows), 3))
-        for i in np.unique(rows.pair):
-            sel = rows.pair == i
-            master = self.frame.pairs[int(i)].master
-            x = master.mesh.points
-            if u is not None:
-                x = x + np.asarray(u[master.name]).reshape(-1, 3)
-            nodes, used = rows.m_nodes[sel], rows.m_nodes[sel] >= 0
-            coef = np.where(used, rows.m_coef[sel], 0.0)
-            out[sel] = np.einsum("rk,rkd->rd", coef, x[np.where(used, nodes, 0)])
-        return out
-
-    def _offset(self, key: _Key, rows: ContactRows, j: int) -> NDArray[np.float64]:
-        """Where a weighted row's anchor sat from the master's weighted point at the start.
+    def _offsets(self, keys: list[_Key], rows: ContactRows) -> NDArray[np.float64]:
+        """Where weighted rows' anchors sat from the masters' weighted points at the start.
 
         Friction acts on the weighted slip (Popp and Wall): the slave's weighted point
         against the master's, ``sum_k b_k x_k``, so that a uniform traction is spread on
-        the master as the mortar spreads the pressure. Its stick anchor is kept as the
+        the master as the mortar spreads the pressure. A stick anchor is kept as the
         master's material point it sat on; the frame measures the slip from that point's
-        offset to the master's weighted point where the frame started.
+        offset to the master's weighted point where the frame started (``rows`` the
+        contacts' rows, in the order of ``keys``).
         """
-        got = self.offsets.get(key)
-        if got is None:
+        missing = [j for j, key in enumerate(keys) if key not in self.offsets]
+        if missing:
             start = self.start()
-            facet, w, _ = self.anchor[key]
-            master = self.frame.pairs[key[0]].master
-            x = master.mesh.points[facet] + start[master.name][facet]
-            got = w @ x - self._master_points(rows.select(np.arange(len(rows)) == j), start)[0]
-            self.offsets[key] = got
-        return got
+            sub = rows.select(np.asarray(missing, np.int64))
+            means = sub.master_points(self.frame.pairs, start)
+            for n, j in enumerate(missing):
+                facet, w, _ = self.anchor[keys[j]]
+                master = self.frame.pairs[keys[j][0]].master
+                x = master.mesh.points[facet] + start[master.name][facet]
+                self.offsets[keys[j]] = w @ x - means[n]
+        return np.array([self.offsets[key] for key in keys]).reshape(-1, 3)
 
     # ------------------------------------------------------------------ rows
     def one_way(self, rows: ContactRows, start: NDArray[np.float64] | None) -> None:
@@ -289,8 +276,8 @@ class Friction:
             # the anchor sat from it when the frame started
             w = np.flatnonzero(weighted)
             sub = picked.select(weighted)
-            offset[w] = sub.slave_points(self.frame.pairs) - self._master_points(sub)
-            offset[w] -= [self._offset(keys[j], sub, n) for n, j in enumerate(w)]
+            offset[w] = sub.slave_points(self.frame.pairs) - sub.master_points(self.frame.pairs)
+            offset[w] -= self._offsets([keys[j] for j in w], sub)
             width = max(3, sub.m_nodes.shape[1])
             facets, weights = pad_columns(facets, width, -1), pad_columns(weights, width, 0.0)
             facets[w] = pad_columns(sub.m_nodes, width, -1)
