@@ -263,16 +263,14 @@ def plane_pairs(
     friction: Callable[[str, str], float],
     gaps: str = "nodal",
 ) -> list[ContactPair]:
-    """Each body against each plane: weighted rows where ``gaps`` asks and they apply.
+    """Each body against each plane: weighted rows where ``gaps`` asks.
 
-    ``friction(plane, body)`` is the pair's coefficient. Weighted (mortar) rows take no
-    force-driven plane (:class:`~contact.solver.settings.ContactSettings` ``gaps``): such
-    a pair keeps its node rows.
+    ``friction(plane, body)`` is the pair's coefficient; ``gaps`` as
+    :class:`~contact.solver.settings.ContactSettings` has it.
     """
     out = []
     for b in bodies:
         for p in planes:
             mu = friction(p.name, b.name)
-            weighted = gaps == "weighted" and p.force is None
-            out.append(ContactPair(b, p, mortar=weighted, friction=mu))
+            out.append(ContactPair(b, p, mortar=gaps == "weighted", friction=mu))
     return out

@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from . import zone
+from .driven import DrivenPlanes
 from .pairs import ContactPair, Penetrations
 from .rows import ContactRows, MortarCandidates
 
@@ -63,6 +64,7 @@ class FrameGeometry(Protocol):
 
     pairs: list[ContactPair]
     mortar: dict[int, MortarCandidates]
+    driven: DrivenPlanes
     local: dict[str, NDArray[np.float64]]
     margin: float
     timings: dict[str, float]
@@ -343,6 +345,8 @@ class ContactSet:
         pair, cand = self.frame.pairs[i], self.frame.mortar[i]
         u_m = np.zeros(0) if pair.rigid else u[pair.master.name]  # type: ignore[union-attr]
         g = cand.gaps(u[pair.slave.name], u_m)
+        if pair.rigid and pair.master.force is not None:  # a force-driven plane, where it is
+            g = g - float(self.frame.driven.shift[pair.master.name][0] @ pair.master.normal)
         nodes = cand.rows.node
         tol = self.frame.tol(pair, nodes)
         fresh = ~np.isin(nodes, rows.node[rows.pair == i]) & ~np.isin(

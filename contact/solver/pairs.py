@@ -56,9 +56,9 @@ class ContactPair:
         The obstacle.
     mortar : bool
         Weighted (mortar) rows instead of node-to-surface rows: against a body
-        (:mod:`contact.solver.mortar`) or a plane that is not force-driven
-        (:mod:`contact.solver.planemortar`). Friction acts on their weighted slip: the
-        row's weighted slave point against the master's point under it.
+        (:mod:`contact.solver.mortar`) or a plane (:mod:`contact.solver.planemortar`).
+        Friction acts on their weighted slip: the row's weighted slave point against the
+        master's point under it.
     friction : float
         Coulomb's coefficient ``mu >= 0`` of the pair (0: frictionless).
     """
@@ -72,8 +72,6 @@ class ContactPair:
         mu = self.friction
         if isinstance(mu, bool) or not isinstance(mu, (int, float)) or not 0.0 <= mu < np.inf:
             raise ValueError(f"{self.name}: friction = {mu!r} must be a finite number >= 0")
-        if self.mortar and isinstance(self.master, Plane) and self.master.force is not None:
-            raise ValueError(f"{self.name}: mortar rows need a plane that is not force-driven")
 
     @property
     def name(self) -> str:

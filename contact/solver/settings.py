@@ -50,7 +50,7 @@ class ContactSettings:
         The fixed factor, and Aitken's first one, in (0, 1].
     gaps : {"nodal", "weighted"}
         How an object's gaps are measured: at its surface nodes, or weighted over its
-        faces, against a plane that is not force-driven on its smoothed surface
+        faces, against a plane on its smoothed surface
         (:mod:`contact.solver.planemortar`), which resolves a patch smaller than the
         faces, and against another object by one mortar pair, with friction too
         (:mod:`contact.solver.mortar`). The hand keeps its node rows.

@@ -123,3 +123,31 @@ def test_the_frictional_patch_sticks_uniformly_below_mu_p_and_slides_above():
         assert np.allclose(f[:, 0], -tau / p * f[:, 2], rtol=1e-8, atol=1e-12 * tau * 4e-4)
         assert res.friction.slip == 0
         assert res.friction.max_cone_use == pytest.approx(ratio, rel=1e-8)
+
+
+def _driven_pads(weight, force=2.0, mu=0.5):
+    mat = fem.LinearElastic(1.0e6, NU, RHO)
+    g = fem.gravity_load(_BALL, mat, (0.0, 0.0, -1.0))
+    ball = ElasticBody("ball", _BALL, mat, loads=g / -g[2::3].sum() * weight)
+    left = Plane((-R, 0, 0), (1, 0, 0), force=force, name="left")
+    right = Plane((R, 0, 0), (-1, 0, 0), force=force, name="right")
+    pairs = [ContactPair(ball, p, mortar=True, friction=mu) for p in (left, right)]
+    return solve_frame([ball], pairs, [left, right])
+
+
+def test_force_driven_pads_press_by_their_force_and_hold_up_to_twice_mu_f():
+    """Weighted rows against force-driven planes: each pad where its force puts it (about
+    Hertz's approach, node rows 23 % past it), the ball held below 2 mu F, dropped past."""
+    squeezed = _driven_pads(0.0)
+    assert squeezed.converged and squeezed.held, squeezed.stop_reason
+    assert squeezed.obstacle_forces["left"][0] == pytest.approx(-2.0, rel=1e-9)
+    travel = squeezed.plane_positions["left"][0]
+    e_star = 1.0e6 / (1 - NU**2)
+    hertz = (3 * 2.0 / (4 * e_star * np.sqrt(R))) ** (2 / 3)
+    assert travel == pytest.approx(hertz, rel=0.08)  # measured -3.6 %
+    held = _driven_pads(0.95 * 2 * 0.5 * 2.0)
+    assert held.converged and held.held, held.stop_reason
+    assert held.obstacle_forces["left"][2] == pytest.approx(-0.95, rel=1e-9)
+    dropped = _driven_pads(1.05 * 2 * 0.5 * 2.0)
+    assert not dropped.converged and dropped.held is False
+    assert dropped.stop_reason.startswith("not held: ball slips along (0.000, 0.000, -1.000)")
