@@ -19,10 +19,9 @@ facet's middle, as much as a small press: on the flat facets a weighted gap woul
 that sagitta and close late; on the smoothed surface, with ``alpha = 1/2`` exact to
 second order on a sphere, the press is the curved body's (``benchmarks/results/plates.md``
 compares both with node rows against Hertz). Faces meeting at more than
-:data:`contact.solver.smoothing.CREASE`
-keep their own normals there: a block's edge stays sharp, its flat faces stay flat (the
-contact patch test is passed exactly: a uniform pressure gives each node its consistent
-load ``p A_i``).
+:data:`contact.solver.smoothing.CREASE` keep their own normals there: a block's edge stays
+sharp, its flat faces stay flat (the contact patch test is passed exactly: a uniform
+pressure gives each node its consistent load ``p A_i``).
 
 Faces are integrated with :func:`fem.elements.face_quadrature` of degree 5 (7 points on a
 triangle, 3 x 3 on a quad): exact for ``N_i N_j`` and ``N_i`` times the smoothed
@@ -45,6 +44,7 @@ from ..geometry.plane import Plane
 from .smoothing import corner_normals, face_cross, smoothed
 
 __all__ = ["PlaneRows", "plane_rows"]
+
 
 @dataclass(frozen=True)
 class PlaneRows:

@@ -21,6 +21,7 @@ CREASE = 40.0
 #: Phong tessellation's blend: 1/2 is exact to second order on a sphere.
 ALPHA = 0.5
 
+
 def face_cross(x: NDArray[np.float64]) -> NDArray[np.float64]:
     """Normals of faces ``(F, k, 3)`` twice their areas long (quads by their diagonals)."""
     if x.shape[1] == 3:
@@ -72,11 +73,16 @@ def corner_normals(
 
 
 def smoothed(x: NDArray, corner_n: NDArray, n: NDArray) -> NDArray[np.float64]:
-    """Phong-smoothed points at shape-function values ``n`` (q, k) on faces ``x`` (F, k, 3)."""
-    flat = np.einsum("qk,fkd->fqd", n, x)  # (F, q, 3)
-    rel = flat[:, :, None, :] - x[:, None, :, :]  # (F, q, k, 3)
-    off = np.einsum("fqkd,fkd->fqk", rel, corner_n)[..., None] * corner_n[:, None]  # (F,q,k,3)
-    return flat - ALPHA * np.einsum("qk,fqkd->fqd", n, off)
+    """Phong-smoothed points at shape-function values ``n`` (q, k) on faces ``x`` (F, k, 3).
+
+    The same points on every face: ``(F, q, 3)``, each face's flat point and its
+    :func:`bulge`.
+    """
+    f, q = len(x), len(n)
+    flat = np.einsum("qk,fkd->fqd", n, x)
+    rep = np.repeat(np.arange(f), q)
+    lift = bulge(x[rep], corner_n[rep], np.tile(n, (f, 1)))
+    return flat + lift.reshape(f, q, 3)
 
 
 def bulge(x: NDArray, corner: NDArray, n: NDArray) -> NDArray[np.float64]:

@@ -138,6 +138,13 @@ class Friction:
         new = [i for i in np.flatnonzero(self.base[rows.pair] > 0)
                if (int(rows.pair[i]), int(rows.node[i])) not in self.anchor]  # fmt: skip
         xs = rows.select(np.asarray(new, np.int64)).slave_points(pairs, u)
+        # a weighted row's master point under it: one query of each master's surface
+        under: dict[int, tuple[NDArray, NDArray]] = {}
+        for p in {int(rows.pair[i]) for i in new}:
+            if pairs[p].mortar and not pairs[p].rigid:
+                at = [j for j, i in enumerate(new) if rows.pair[i] == p]
+                facet, w = master_points(pairs[p], xs[at], u)
+                under.update({new[j]: (facet[n], w[n]) for n, j in enumerate(at)})
         for i, x in zip(new, xs, strict=True):
             key = (int(rows.pair[i]), int(rows.node[i]))
             if key in self.anchor:
@@ -151,8 +158,7 @@ class Friction:
                 point = plane.moved(motion).project(x[None])[0] - motion
                 self.anchor[key] = (np.full(3, -1, np.int64), np.zeros(3), point)
             elif pair.mortar:
-                facet, w = master_points(pair, x[None], u)
-                self.anchor[key] = (facet[0], w[0], np.full(3, np.nan))
+                self.anchor[key] = (*under[i], np.full(3, np.nan))
             else:
                 self.anchor[key] = (
                     rows.m_nodes[i, :3].copy(), rows.m_coef[i, :3].copy(), np.full(3, np.nan)
