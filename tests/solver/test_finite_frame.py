@@ -283,3 +283,31 @@ def test_a_free_bodys_turn_is_taken_as_a_finite_rotation(angle):
     # a small turn is the linearised step to second order
     if angle < finite.MAX_TURN:
         assert np.abs(step - du).max() <= angle**2 * H
+
+
+def test_a_newton_cut_short_says_nothing_of_holding(monkeypatch):
+    # a free ball rolled by a plate: held where Newton converges; where its steps run out
+    # or a later tangent cannot be factored, the frame is not converged and held is None,
+    # not the last linear step's verdict
+    r = 0.02
+    body = FiniteBody("ball", fem.ball_mesh(r, r / 5), MAT)
+    table = Plane((0, 0, -r), (0, 0, 1), name="table")
+    plate = Plane((0, 0, r), (0, 0, -1), motion=(0.3 * r, 0, -0.05 * r), name="plate")
+    pairs = [ContactPair(body, table, friction=1.0), ContactPair(body, plate, friction=1.0)]
+    out = solve_finite_frame([body], pairs, [table, plate])
+    assert out.converged and out.frame_result().held is True and out.steps >= 3
+    short = solve_finite_frame([body], pairs, [table, plate], max_steps=1)
+    assert not short.converged and short.result.held is True
+    assert short.frame_result().held is None and not short.frame_result().converged
+    solve, calls = finite.solve_frame, []
+
+    def failing(*args, **kwargs):
+        calls.append(1)
+        if len(calls) >= 2:
+            raise fem.SolverError("could not factor the matrix")
+        return solve(*args, **kwargs)
+
+    monkeypatch.setattr(finite, "solve_frame", failing)
+    failed = solve_finite_frame([body], pairs, [table, plate])
+    assert "could not be factored" in failed.stop_reason
+    assert failed.result.held is True and failed.frame_result().held is None
