@@ -76,7 +76,8 @@ pictures = false
 def test_two_objects_and_the_hand_balance_and_act_and_react(tmp_path: Path, gaps: str) -> None:
     # the table lifts a block into the ball and the ball into the palm: ball/hand,
     # ball/block and block/table contacts in one frame, with friction; by weighted gaps
-    # the objects meet in one frictional mortar pair and the table by weighted rows
+    # the objects, and the hand and the ball, meet in one frictional mortar pair each and
+    # the table by weighted rows
     path = tmp_path / "two.toml"
     text = TWO.format(block=block(tmp_path).as_posix(), out=(tmp_path / "r").as_posix())
     path.write_text(text + f'\n[solver]\ngaps = "{gaps}"\n')
@@ -85,7 +86,7 @@ def test_two_objects_and_the_hand_balance_and_act_and_react(tmp_path: Path, gaps
     assert res.converged and res.held, res.stop_reason
     pairs = set(res.contacts["pair"])
     if gaps == "weighted":
-        assert "block/ball" not in pairs and "ball/hand" in pairs and "hand/ball" in pairs
+        assert "block/ball" not in pairs and ("ball/hand" in pairs) != ("hand/ball" in pairs)
     assert {"ball/hand", "ball/block", "block/table"} <= pairs | {"hand/ball", "block/ball"}
     assert any(p in pairs for p in ("ball/hand", "hand/ball"))
     assert any(p in pairs for p in ("ball/block", "block/ball"))

@@ -241,11 +241,8 @@ def body_pairs(
 ) -> list[ContactPair]:
     """Each object against the later ones, then the hand against each object.
 
-    ``friction(a, b)`` is a pair's coefficient (``"hand"`` for the hand). Objects meet
-    as :func:`object_pairs` says. The hand meets each object by node rows both ways,
-    whatever ``gaps`` says: its skin's nodes (about 5 mm apart on a fingertip of 8 mm
-    radius) are wider than a press's patch, and a weighted gap stays open where a
-    fingertip is 0.5 mm into a ball by its nodes.
+    ``friction(a, b)`` is a pair's coefficient (``"hand"`` for the hand). Objects, and the
+    hand against each object, meet as :func:`object_pairs` says.
     """
     out = []
     for i, a in enumerate(objects):
@@ -253,7 +250,10 @@ def body_pairs(
             out += object_pairs(a, b, friction(b.name, a.name), gaps)
     for o in objects if hand is not None else ():
         mu = friction("hand", o.name)
-        out += [ContactPair(o, hand, friction=mu), ContactPair(hand, o, friction=mu)]
+        if gaps == "weighted":
+            out += object_pairs(o, hand, mu, gaps)
+        else:
+            out += [ContactPair(o, hand, friction=mu), ContactPair(hand, o, friction=mu)]
     return out
 
 

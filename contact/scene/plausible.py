@@ -1,10 +1,17 @@
-"""A scene that reads but asks for what no grasp has: a friction coefficient above measure.
+"""A scene that reads but asks for what no grasp has, or what its meshes cannot resolve.
 
+A friction coefficient above measure:
 Coulomb coefficients measured for skin run from about 0.2 (dry skin on smooth plastic or
 glass) to about 2 (moist skin on rubber). A coefficient above :data:`MAX_FRICTION` is
 allowed, since the solver handles it, but warned of in one log line naming the key: a
 grip that needs it is not one a hand can make, and a search for a finger's force is then
 likely to end short of its target.
+
+Weighted gaps on the coarse hand: its fingertip's skin nodes (about 5 mm apart) are
+wider than a press's contact patch, and a weighted gap, the mean of the overlap over a
+node's faces, closes only well past first touch (the finger-press fingertip about 1 mm
+into the ball by its nodes, where the fine hand's close at first touch:
+``benchmarks/results/flexion.md``). Warned of, naming the keys.
 """
 
 from __future__ import annotations
@@ -13,7 +20,7 @@ import logging
 
 from .spec import Scene
 
-__all__ = ["MAX_FRICTION", "friction_keys", "warn_friction"]
+__all__ = ["MAX_FRICTION", "friction_keys", "warn_coarse_gaps", "warn_friction"]
 
 log = logging.getLogger(__name__)
 
@@ -48,3 +55,18 @@ def warn_friction(scene: Scene, source: str) -> None:
                 "materials (0.2 to 2)",
                 source, key, mu, MAX_FRICTION,
             )  # fmt: skip
+
+
+def warn_coarse_gaps(scene: Scene, source: str) -> None:
+    """One warning where the coarse hand meets objects by weighted gaps."""
+    hand, gaps = scene.hand, scene.solver.contact.gaps
+    if hand is None or gaps != "weighted" or hand.resolution != "coarse":
+        return
+    if scene.ball is None and not scene.objects:
+        return
+    log.warning(
+        '%s: solver.gaps = "weighted" with hand.resolution = "coarse": the coarse '
+        "fingertip's nodes are wider than a press's patch, and its weighted gaps close "
+        'only about 1 mm past first touch; use hand.resolution = "fine"',
+        source,
+    )

@@ -48,7 +48,7 @@ from .model import (
     SolverScene,
 )
 from .objects import read_objects
-from .plausible import warn_friction
+from .plausible import warn_coarse_gaps, warn_friction
 from .read_hand import read_auto_flexion, read_follow, read_hand
 from .spec import Scene
 
@@ -443,4 +443,5 @@ def load_scene(path: str | os.PathLike) -> Scene:
         ball_friction=ball_friction,
     )
     warn_friction(scene, source)
+    warn_coarse_gaps(scene, source)
     return scene

@@ -106,3 +106,23 @@ def test_two_objects_deep_in_each_other_are_refused_the_hand_posed_into_one_is_n
         check_overlaps(0.0, [block, _box("hand", (0.04, 0.04, 0.02), 0.005)], [], 1e-3)
     said = warnings_of(caplog)
     assert len(said) == 2 and " of block is 5 mm inside hand " in said[0]
+
+
+@pytest.mark.parametrize("resolution, gaps, warned", [
+    ("coarse", "weighted", True), ("fine", "weighted", False), ("coarse", "nodal", False),
+])  # fmt: skip
+def test_weighted_gaps_on_the_coarse_hand_are_warned_of(
+    tmp_path, caplog, resolution, gaps, warned
+):
+    text = (Path(__file__).resolve().parents[2] / "examples" / "finger_press.toml").read_text()
+    text = text.replace('resolution = "coarse"', f'resolution = "{resolution}"')
+    path = tmp_path / "press.toml"
+    path.write_text(text.replace("[solver]", f'[solver]\ngaps = "{gaps}"'))
+    with caplog.at_level(logging.WARNING, logger="contact.scene"):
+        load_scene(path)
+    lines = [w for w in warnings_of(caplog) if "weighted" in w]
+    assert lines == ([
+        f'{path}: solver.gaps = "weighted" with hand.resolution = "coarse": the coarse '
+        "fingertip's nodes are wider than a press's patch, and its weighted gaps close "
+        'only about 1 mm past first touch; use hand.resolution = "fine"'
+    ] if warned else [])  # fmt: skip
