@@ -24,6 +24,7 @@ BENCHMARKS = (
     "frame",
     "patch",
     "plates",
+    "flexion",
     "friction",
     "holding",
     "finite",
