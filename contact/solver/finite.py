@@ -185,17 +185,13 @@ class FiniteFrame:
     def frame_result(self) -> FrameResult:
         """The frame as a linear frame reads: total displacements, Newton's verdict and timings."""
         res = self.result
-        # a Newton that stopped short says nothing of holding, but where a step found the
-        # body not held (what stopped it)
-        held = res.held if self.converged or res.held is False else None
+        held = res.held if self.converged or res.held is False else None  # short: unknown
         return replace(
-            res,
-            displacement={**res.displacement, **self.displacement},
-            converged=self.converged,
-            held=held,
+            res, displacement={**res.displacement, **self.displacement},
+            converged=self.converged, held=held,
             stop_reason=res.stop_reason if self.converged else self.stop_reason,
             timings={**self.timings, "total": sum(self.timings.values())},
-        )
+        )  # fmt: skip
 
 
 def solve_finite_frame(
