@@ -102,6 +102,7 @@ class ElasticBody:
                 f"got {stiffness.shape}"
             )
         self.stiffness = sp.csr_matrix(stiffness)
+        self.stiffness_diagonal = self.stiffness.diagonal()  # kept: each frame's round-off scale
         pres = None if prescribed is None else np.asarray(prescribed, dtype=np.int64)
         self.solver = fem.StaticSolver(
             self.stiffness,

@@ -343,10 +343,7 @@ class ContactSet:
         see them to let it settle onto them.
         """
         pair, cand = self.frame.pairs[i], self.frame.mortar[i]
-        u_m = np.zeros(0) if pair.rigid else u[pair.master.name]  # type: ignore[union-attr]
-        g = cand.gaps(u[pair.slave.name], u_m)
-        if pair.rigid and pair.master.force is not None:  # a force-driven plane, where it is
-            g = g - float(self.frame.driven.shift[pair.master.name][0] @ pair.master.normal)
+        g = self._weighted_gaps(i, u)
         nodes = cand.rows.node
         tol = self.frame.tol(pair, nodes)
         fresh = ~np.isin(nodes, rows.node[rows.pair == i]) & ~np.isin(
@@ -359,6 +356,43 @@ class ContactSet:
         if hit.any():
             rows = rows.joined(cand.rows.select(hit))
         return rows, int(hit.sum()), depth
+
+
+    def _weighted_gaps(self, i: int, u: Mapping[str, NDArray]) -> NDArray[np.float64]:
+        """Every candidate row's weighted gap of mortar pair ``i`` at displacements ``u``."""
+        pair, cand = self.frame.pairs[i], self.frame.mortar[i]
+        u_m = np.zeros(0) if pair.rigid else u[pair.master.name]  # type: ignore[union-attr]
+        g = cand.gaps(u[pair.slave.name], u_m)
+        if pair.rigid and pair.master.force is not None:  # a force-driven plane, where it is
+            g = g - float(self.frame.driven.shift[pair.master.name][0] @ pair.master.normal)
+        return g
+
+    def mortar_zone(self, i: int, u: Mapping[str, NDArray]) -> list[tuple[str, NDArray, NDArray]]:
+        """The contact zone of mortar pair ``i``: (body, nodes, nearness) of each side.
+
+        As node rows mark theirs (:meth:`contact.solver.frame.FrameState.mark_zones`): the
+        rows the first set takes (inside, or within the near band where the pair starts
+        wide) and a ring of slave nodes around them (:func:`zone.slave_zone`), each row
+        marking the nodes its weights touch on both sides, as near as its weighted gap.
+        """
+        pair, cand = self.frame.pairs[i], self.frame.mortar[i]
+        nodes = cand.rows.node
+        if not nodes.size:
+            return []
+        g = self._weighted_gaps(i, u)
+        first = first_set(g, self.frame.tol(pair, nodes))
+        local = self.frame.local[pair.slave.name][nodes]
+        ring = None if pair.wide_start else zone.HELD_RING
+        sel = zone.slave_zone(pair.slave.mesh.points, nodes, g, first, local, ring)
+        if pair.wide_start:
+            sel |= g < self.near_band(pair, nodes, g, NEAR)
+        sides = ((pair.slave.name, cand.rows.s_nodes), (pair.master.name, cand.rows.m_nodes))
+        out = []
+        for name, support in sides[: 1 if pair.rigid else 2]:  # a plane has no zone
+            touched = support[sel]
+            ok = touched >= 0
+            out.append((name, touched[ok], np.broadcast_to(g[sel][:, None], touched.shape)[ok]))
+        return out
 
 
 def first_set(gap: NDArray[np.float64], tol: NDArray[np.float64]) -> NDArray[np.bool_]:

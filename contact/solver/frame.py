@@ -139,11 +139,8 @@ class FrameState:
                 zone[name].append((n, np.full(n.size, -np.inf), every))
         for i, pair in enumerate(self.pairs):
             if i in self.mortar:
-                cand = self.mortar[i]
-                sides = ((pair.slave, cand.rows.s_nodes), (pair.master, cand.rows.m_nodes))
-                for body, nodes in sides[: 1 if pair.rigid else 2]:  # a plane has no zone
-                    n = np.unique(nodes[nodes >= 0])  # type: ignore[union-attr]
-                    zone[body.name].append((n, np.full(n.size, -np.inf), every))
+                for name, nodes, near in self.contacts.mortar_zone(i, u):
+                    zone[name].append((nodes, near, every))
                 continue
             wide = 3.0 * self.margin
             p = self.measure_pair(i, u, wide)
@@ -378,7 +375,7 @@ class FrameState:
         stiff = np.zeros(m)
         for b in self.bodies:
             if (eb := e.get(b.name)) is not None:
-                stiff += eb[:m].multiply(eb[:m]) @ b.stiffness.diagonal()
+                stiff += eb[:m].multiply(eb[:m]) @ b.stiffness_diagonal
         small = 1e-10 * float(np.abs(rows.g0).max(initial=0.0)) * stiff
         rest = {b.name: rows.g0 < -tol for b in self.bodies if not b.loads.any()}
         return held.touches_nothing(e, lam, gap, tol, moves, still, small, rest)
