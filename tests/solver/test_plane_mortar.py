@@ -213,3 +213,28 @@ def test_an_unloaded_body_set_onto_its_rows_at_zero_force_rests():
     )
     # open at the end: it touches nothing, loaded or not
     assert held.touches_nothing(e, lam, gap + 1e-5, tol, moves, still, resting=rest) != ""
+
+
+def test_a_weighted_pair_marks_its_patch_and_a_ring_not_every_candidate(monkeypatch):
+    # the zone ordered last by the factorisation is where the rows will act: the first
+    # set (pressed nodes, and the near band of a free body) and a ring, not the whole
+    # surface facing the plates; every row the frame closes lies in it (partial solves)
+    marked = {}
+    orig = ElasticBody.mark_zone
+
+    def spy(self, nodes, near, touched=None):
+        marked[self.name] = np.unique(nodes)
+        return orig(self, nodes, near, touched)
+
+    monkeypatch.setattr(ElasticBody, "mark_zone", spy)
+    body = plates.ball("hex", 0.003)
+    table = Plane((0, 0, 0), (0, 0, 1), name="table")
+    plate = Plane((0, 0, 2 * plates.R), (0, 0, -1), motion=(0, 0, -1e-3), name="plate")
+    pairs = [ContactPair(body, plate, mortar=True), ContactPair(body, table, mortar=True)]
+    res = solve_frame([body], pairs, [plate, table])
+    assert res.converged
+    facing = np.abs(body.mesh.points[body.contact_nodes, 2] - plates.R) > 0.5 * plates.R
+    assert marked["ball"].size < 0.4 * facing.sum()  # every candidate: twice as many
+    # the rows closed: their nodes' faces all marked
+    closed = np.asarray(res.contacts["node"])
+    assert closed.size and np.isin(closed, marked["ball"]).all()
