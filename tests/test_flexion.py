@@ -8,6 +8,7 @@ rows' does and grows in steady increments, no node entering makes it jump.
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +16,7 @@ import pytest
 
 from benchmarks.flexion import BEFORE, configured, sweep
 from contact.objects.placed import body_pairs
+from contact.run.grasprun import GraspRun
 from contact.scene import load_scene
 from contact.solver.body import ElasticBody
 
@@ -73,3 +75,22 @@ def test_weighted_and_node_rows_agree_on_the_fine_hand() -> None:
     on_w, on_n = np.flatnonzero(weighted > 0)[0], np.flatnonzero(nodal > 0)[0]
     assert 0 <= on_w - on_n <= 4
     assert weighted[-1] == pytest.approx(nodal[-1], rel=0.2)
+
+
+def _pinch(eps: float) -> tuple[bool, bool | None, float]:
+    scene = configured(load_scene(EXAMPLES / "pinch.toml"), "coarse", "weighted")
+    ball = scene.ball
+    assert ball is not None
+    moved = tuple(x * (1 + eps) for x in ball.center)
+    run = GraspRun(dataclasses.replace(scene, ball=dataclasses.replace(ball, center=moved)))
+    res, extra, _, _ = run.frame(0.5)
+    return res.converged, res.held, extra["auto_flexion"]["index_pip"]["reached"]
+
+
+def test_the_pinch_by_weighted_gaps_holds_at_its_force_and_round_off_leaves_it() -> None:
+    # the free ball pinched by the thumb and the force-driven index (0.3 N), skin friction
+    # 0.8, by one weighted pair; the ball placed 1e-15 apart gives the same verdict
+    converged, held, reached = _pinch(0.0)
+    assert converged and held and reached == pytest.approx(0.3, rel=0.02)
+    twin = _pinch(1e-15)
+    assert twin[:2] == (converged, held) and twin[2] == pytest.approx(reached, rel=1e-8)
