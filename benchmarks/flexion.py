@@ -47,7 +47,7 @@ __all__ = ["GOAL", "STEP", "configured", "run", "sweep", "touch_angle"]
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 #: The flexion step (degrees) and the sweep's steps past first touch; ``--quick``: fewer.
 STEP = 0.05
-STEPS = {False: 36, True: 6}
+STEPS = {False: 36, True: 2}
 #: Steps before first touch.
 BEFORE = 4
 #: The largest step, as a fraction of the force at the end of the sweep.

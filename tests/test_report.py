@@ -1,9 +1,6 @@
 """The terminal report and the grasp's figures in ``summary.json`` (grip, parts, strain)."""
 
-import contextlib
-import io
 import json
-import logging
 from pathlib import Path
 
 import numpy as np
@@ -15,34 +12,6 @@ from contact.grasp import main
 
 ROOT = Path(__file__).resolve().parents[1]
 PARTS = ["palm", "thumb", "index", "middle", "ring", "little"]
-
-
-class _Records(logging.Handler):
-    def __init__(self) -> None:
-        super().__init__(logging.WARNING)
-        self.messages: list[str] = []
-
-    def emit(self, record: logging.LogRecord) -> None:
-        self.messages.append(record.getMessage())
-
-
-@pytest.fixture(scope="module")
-def finger_press(tmp_path_factory):
-    """The index finger pressing a ball: stdout, warnings and summary of one run."""
-    out = tmp_path_factory.mktemp("finger_press") / "results"
-    stdout = io.StringIO()
-    log = logging.getLogger("contact.grasp")
-    records = _Records()
-    log.addHandler(records)
-    try:
-        with contextlib.redirect_stdout(stdout):
-            code = main(
-                [str(ROOT / "examples/finger_press.toml"), "--no-pictures", "--out", str(out)]
-            )
-    finally:
-        log.removeHandler(records)
-    summary = json.loads((out / "summary.json").read_text())
-    return code, stdout.getvalue().splitlines(), records.messages, summary, out
 
 
 def test_one_line_a_frame_then_the_closing_line(finger_press):

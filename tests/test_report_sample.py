@@ -3,7 +3,6 @@
 from pathlib import Path
 
 from contact.app.report import parse_line
-from contact.grasp import main
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -22,14 +21,12 @@ def _sample() -> list[dict[str, str]]:
     return block
 
 
-def test_the_sample_report_is_a_run_of_finger_press(tmp_path: Path, capsys) -> None:
+def test_the_sample_report_is_a_run_of_finger_press(finger_press) -> None:
     sample = _sample()
     assert len(sample) >= 2
-    out = tmp_path / "finger_press"
-    code = main([str(ROOT / "examples" / "finger_press.toml"), "--out", str(out),
-                 "--no-pictures"])
+    code, lines, _, _, _ = finger_press  # a run of examples/finger_press.toml (conftest)
     assert code == 0
-    run = [parse_line(ln) for ln in capsys.readouterr().out.splitlines() if ln]
+    run = [parse_line(ln) for ln in lines if ln]
     by_key = {(r.get("frame"), r.get("frames")): r for r in run}
     for line in sample:
         got = by_key[(line.get("frame"), line.get("frames"))]

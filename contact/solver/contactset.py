@@ -357,7 +357,6 @@ class ContactSet:
             rows = rows.joined(cand.rows.select(hit))
         return rows, int(hit.sum()), depth
 
-
     def _weighted_gaps(self, i: int, u: Mapping[str, NDArray]) -> NDArray[np.float64]:
         """Every candidate row's weighted gap of mortar pair ``i`` at displacements ``u``."""
         pair, cand = self.frame.pairs[i], self.frame.mortar[i]
