@@ -66,7 +66,7 @@ FRACTIONS = {False: (0.25, 0.5, 0.75, 1.0), True: (0.25, 0.5)}
 #: Random poses per fraction: full run and ``--quick``.
 N_RANDOM = {False: 40, True: 4}
 #: Resolutions: full run and ``--quick``.
-RESOLUTIONS = {False: ("coarse", "fine"), True: ("coarse",)}
+RESOLUTIONS = {False: ("coarse", "fine", "fingertips"), True: ("coarse",)}
 #: Sequences per fraction: full run and ``--quick``.
 N_SEQUENCES = {False: 2, True: 1}
 

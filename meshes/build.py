@@ -17,7 +17,7 @@ from pathlib import Path
 
 from contact.errors import RigError
 from contact.hand.bones import joint_clearance
-from contact.hand.build import COARSE, FINE, build_hand, hand_report, write_hand
+from contact.hand.build import COARSE, FINE, FINGERTIPS, build_hand, hand_report, write_hand
 from contact.hand.checks import finger_widths
 from contact.hand.flesh import joint_pairs, open_joints
 from contact.hand.jointgap import split_joint_gaps
@@ -142,7 +142,7 @@ def main(argv: list[str] | None = None) -> None:
     report = json.loads(report_path.read_text()) if report_path.is_file() else {}
     report["rig"] = _rig_numbers(args.dir)
     report["rig"]["joint_clearance_mm"] = check_clearance(skeleton)
-    for res in (r for r in (COARSE, FINE) if r.name in args.resolution):
+    for res in (r for r in (COARSE, FINE, FINGERTIPS) if r.name in args.resolution):
         t0 = time.perf_counter()
         hand, timings = build_hand(skeleton, res)
         write_hand(hand, args.dir)
@@ -155,6 +155,7 @@ def main(argv: list[str] | None = None) -> None:
             "bone_edge_m": res.bone_edge,
             "tet_edge_m": res.tet_edge,
             "tetwild": res.tetwild,
+            "tip_edge_m": res.tip_edge,
         }
         report[res.name] = entry
         report_path.write_text(json.dumps(report, indent=2) + "\n")

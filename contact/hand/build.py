@@ -34,7 +34,10 @@ from .quality import quality_summary
 from .shipped import Hand, hand_files
 from .skeleton import Skeleton
 
-__all__ = ["COARSE", "FINE", "Resolution", "build_hand", "hand_report", "write_hand"]
+__all__ = [
+    "COARSE", "FINE", "FINGERTIPS", "TIP_GROWTH", "TIP_REACH", "Resolution", "build_hand",
+    "fingertip_sizing", "hand_report", "write_hand",
+]  # fmt: skip
 
 log = logging.getLogger(__name__)
 
@@ -58,7 +61,11 @@ class Resolution:
         Target tetrahedron edge length (m).
     tetwild : dict
         Extra ``pytetwild.tetrahedralize`` options (``epsilon`` relative to the bounding box
-        diagonal, ``num_opt_iter``, ``stop_energy``); empty: :func:`fem.tetrahedralize`.
+        diagonal, ``num_opt_iter``, ``stop_energy``, ``coarsen``); empty:
+        :func:`fem.tetrahedralize`.
+    tip_edge : float
+        Target edge length (m) at the fingertips, growing to ``tet_edge`` away from them
+        (:func:`fingertip_sizing`); 0: ``tet_edge`` everywhere.
     """
 
     name: str
@@ -67,6 +74,7 @@ class Resolution:
     bone_edge: float
     tet_edge: float
     tetwild: dict[str, Any] = field(default_factory=dict)
+    tip_edge: float = 0.0
 
     @property
     def epsilon(self) -> float:
@@ -82,6 +90,17 @@ COARSE = Resolution(
 FINE = Resolution(
     "fine", 0.001, 0.85, 0.002, 0.0035, {"epsilon": 1e-3, "num_opt_iter": 20, "stop_energy": 15.0}
 )
+#: The coarse hand's flesh with fingertips of 2 mm edges, where a press's patch is a few
+#: millimetres across (weighted gaps resolve it: ``benchmarks/results/flexion.md``): the fine
+#: skin, meshed under :func:`fingertip_sizing` and coarsened to it.
+FINGERTIPS = Resolution(
+    "fingertips", 0.001, 0.85, 0.004, 0.007,
+    {"epsilon": 1e-3, "num_opt_iter": 10, "stop_energy": 20.0, "coarsen": True}, tip_edge=0.002,
+)  # fmt: skip
+#: Where the fingertips' edge holds: within this distance (m) of a distal bone; beyond it
+#: the edge grows by :data:`TIP_GROWTH` per unit of distance, up to the hand's.
+TIP_REACH = 0.010
+TIP_GROWTH = 0.5
 
 
 def build_hand(skeleton: Skeleton, res: Resolution) -> tuple[Hand, dict[str, float]]:
@@ -122,7 +141,8 @@ def build_hand(skeleton: Skeleton, res: Resolution) -> tuple[Hand, dict[str, flo
     check_hand_geometry(skin, bones, spec.min_flesh, spec.gap)
     timings["bones"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    mesh = tetrahedralize_flesh(skin, bones, res.tet_edge, **res.tetwild)
+    sizing = fingertip_sizing(skin, bones, res.tip_edge, res.tet_edge) if res.tip_edge else None
+    mesh = tetrahedralize_flesh(skin, bones, res.tet_edge, sizing_field=sizing, **res.tetwild)
     timings["tetrahedralize"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     diag = float(np.linalg.norm(np.ptp(mesh.points, axis=0)))
@@ -135,6 +155,28 @@ def build_hand(skeleton: Skeleton, res: Resolution) -> tuple[Hand, dict[str, flo
     timings["labels"] = time.perf_counter() - t0
     log.info("hand %s: %s in %s", res.name, flesh, {k: round(v, 1) for k, v in timings.items()})
     return Hand(skeleton, flesh, bone_id, cell_bone, skin, bones, res.name), timings
+
+
+def fingertip_sizing(
+    skin: Any, bones: dict[str, Any], tip: float, far: float, spacing: float = 0.004
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The sizing field of fTetWild: finest at the fingertips.
+
+    ``tip`` within :data:`TIP_REACH` of a distal bone, growing by :data:`TIP_GROWTH` per
+    metre beyond, up to ``far``. On a background grid of tetrahedra of ``spacing`` over
+    the skin's bounds; the ``sizing_field`` of :func:`fem.tetrahedralize` (points,
+    tetrahedra, edge lengths).
+    """
+    from scipy.spatial import cKDTree
+
+    lo = np.asarray(skin.bounds[::2]) - 2 * spacing
+    hi = np.asarray(skin.bounds[1::2]) + 2 * spacing
+    n = np.maximum(np.ceil((hi - lo) / spacing).astype(int), 1)
+    grid = fem.box_mesh(tuple(hi - lo), tuple(n), origin=tuple(lo), element="tetra")
+    tips = np.concatenate([np.asarray(b.points) for k, b in bones.items() if k.endswith("_distal")])
+    d, _ = cKDTree(tips).query(grid.points)
+    size = np.clip(tip + TIP_GROWTH * (d - TIP_REACH), tip, far)
+    return grid.points, grid.cells["tetra"], size
 
 
 def write_hand(hand: Hand, directory: str | os.PathLike | None = None) -> dict[str, Path]:

@@ -57,6 +57,7 @@ def tetrahedralize_flesh(
     skin: pyvista.PolyData,
     bones: Mapping[str, pyvista.PolyData],
     edge_length: float,
+    sizing_field: tuple | None = None,
     **tetwild_options: Any,
 ) -> fem.Mesh:
     """Tetrahedra filling the skin with the bones left out as holes.
@@ -69,6 +70,9 @@ def tetrahedralize_flesh(
         Closed, outward bone surfaces, inside the skin and apart from each other.
     edge_length : float
         Target tetrahedron edge length (m).
+    sizing_field : tuple, optional
+        Edge lengths over a background mesh (``(points, tets, values)``, see
+        :func:`fem.tetrahedralize`): finer where it asks.
     **tetwild_options
         Passed through :func:`fem.tetrahedralize` to ``pytetwild.tetrahedralize`` (e.g.
         ``epsilon``, ``stop_energy``, ``num_opt_iter``, ``coarsen``).
@@ -80,7 +84,7 @@ def tetrahedralize_flesh(
     """
     points, triangles = merged_surface(skin, bones)
     return fem.tetrahedralize(
-        (points, triangles), edge_length, **tetwild_options
+        (points, triangles), edge_length, sizing_field=sizing_field, **tetwild_options
     ).remove_unused_points()
 
 

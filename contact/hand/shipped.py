@@ -1,4 +1,4 @@
-"""The hand as shipped: skeleton, skin, bones and the flesh tetrahedra, at two resolutions.
+"""The hand as shipped: skeleton, skin, bones and the flesh tetrahedra, at three resolutions.
 
 The files live in ``meshes/hand/`` (rebuilt by ``python -m meshes.build``)::
 
@@ -38,7 +38,7 @@ __all__ = ["HAND_DIR", "RESOLUTIONS", "Hand", "hand_files", "load_hand"]
 #: Where the shipped hand lives.
 HAND_DIR = Path(__file__).resolve().parents[2] / "meshes" / "hand"
 #: The shipped resolutions.
-RESOLUTIONS = ("coarse", "fine")
+RESOLUTIONS = ("coarse", "fine", "fingertips")
 
 
 def hand_files(resolution: str, directory: str | os.PathLike | None = None) -> dict[str, Path]:
@@ -166,7 +166,7 @@ def load_hand(resolution: str = "coarse", directory: str | os.PathLike | None = 
 
     Parameters
     ----------
-    resolution : {"coarse", "fine"}
+    resolution : {"coarse", "fine", "fingertips"}
     directory : path-like, optional
         Folder holding the files (default ``meshes/hand`` of this repository).
 

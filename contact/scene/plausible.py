@@ -67,6 +67,6 @@ def warn_coarse_gaps(scene: Scene, source: str) -> None:
     log.warning(
         '%s: solver.gaps = "weighted" with hand.resolution = "coarse": the coarse '
         "fingertip's nodes are wider than a press's patch, and its weighted gaps close "
-        'only about 1 mm past first touch; use hand.resolution = "fine"',
+        'only about 1 mm past first touch; use hand.resolution = "fingertips" or "fine"',
         source,
     )

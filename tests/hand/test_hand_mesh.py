@@ -10,14 +10,15 @@ import pyvista as pv
 
 import fem
 from contact.geometry.surfaces import check_closed_surface, enclosed_volume, surface_arrays
+from contact.hand.autoflex import fingertip_node
 from contact.hand.bones import bone_surfaces
-from contact.hand.build import COARSE, FINE
+from contact.hand.build import COARSE, FINE, FINGERTIPS
 from contact.hand.checks import bone_gaps, flesh_thickness
 from contact.hand.quality import tet_dihedral_angles
 from contact.hand.shipped import HAND_DIR, hand_files, load_hand
 
 
-@pytest.fixture(scope="module", params=["coarse", "fine"])
+@pytest.fixture(scope="module", params=["coarse", "fine", "fingertips"])
 def hand(request):
     return load_hand(request.param)
 
@@ -76,7 +77,7 @@ def test_bones_inside_skin_with_flesh_and_apart(hand):
 
 
 def test_bone_files_match_the_rig(hand):
-    res = {"coarse": COARSE, "fine": FINE}[hand.resolution]
+    res = {"coarse": COARSE, "fine": FINE, "fingertips": FINGERTIPS}[hand.resolution]
     rebuilt = bone_surfaces(hand.skeleton, edge=res.bone_edge)
     for name, poly in hand.bones.items():
         assert poly.n_points == rebuilt[name].n_points
@@ -91,6 +92,23 @@ def test_mesh_quality_and_report(hand):
     report = json.loads((HAND_DIR / "quality.json").read_text())[hand.resolution]
     assert report["flesh"]["n_points"] == hand.flesh.n_points
     assert report["flesh"]["min_dihedral_deg"] == pytest.approx(dih.min(), abs=0.01)
+
+
+def _tip_edges(hand, finger: str, reach: float = 0.008) -> float:
+    """Median skin edge (m) within ``reach`` of a finger's tip node."""
+    f = hand.flesh.boundary.faces["triangle"]
+    e = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+    x = hand.flesh.points
+    near = np.linalg.norm(x[e[:, 0]] - x[fingertip_node(hand, finger)], axis=1) < reach
+    return float(np.median(np.linalg.norm(x[e[near, 0]] - x[e[near, 1]], axis=1)))
+
+
+def test_the_fingertips_hand_is_fine_at_the_tips_and_coarse_elsewhere():
+    tips, coarse, fine = (load_hand(r) for r in ("fingertips", "coarse", "fine"))
+    for finger in ("thumb", "index", "middle", "ring", "little"):
+        assert _tip_edges(tips, finger) < 1.2 * FINGERTIPS.tip_edge, finger
+        assert _tip_edges(coarse, finger) > 1.4 * _tip_edges(tips, finger), finger
+    assert tips.flesh.n_points < 0.6 * fine.flesh.n_points
 
 
 def test_load_hand_errors(tmp_path):

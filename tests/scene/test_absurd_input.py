@@ -124,5 +124,5 @@ def test_weighted_gaps_on_the_coarse_hand_are_warned_of(
     assert lines == ([
         f'{path}: solver.gaps = "weighted" with hand.resolution = "coarse": the coarse '
         "fingertip's nodes are wider than a press's patch, and its weighted gaps close "
-        'only about 1 mm past first touch; use hand.resolution = "fine"'
+        'only about 1 mm past first touch; use hand.resolution = "fingertips" or "fine"'
     ] if warned else [])  # fmt: skip
