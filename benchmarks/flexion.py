@@ -8,9 +8,9 @@ the sum over its skin nodes, as the force-driven fingers measure it
 (:func:`contact.holding.fingertargets.finger_forces`). Scenes: ``finger_press`` (the
 index MCP presses a ball on a table) and ``pinch`` (the index PIP presses the ball the
 thumb touches, the ball held in place: a free ball falls until the pinch holds it, and a
-sweep by angle then measures its fall, not the contact). Each with the coarse and the
-fine hand, meeting the object by node
-rows both ways and by one weighted pair (``[solver] gaps``). The flesh and the ball are
+sweep by angle then measures its fall, not the contact). Each with the coarse, the
+fingertips and the fine hand, meeting the object by node rows both ways and by one
+weighted pair (``[solver] gaps``). The flesh and the ball are
 linear here: each step is one linear frame, and what is measured is the contact's
 discretisation, not the material.
 
@@ -54,8 +54,8 @@ BEFORE = 4
 GOAL = 0.05
 #: (scene, hand resolution) of the full run and of ``--quick``.
 CASES = {
-    False: (("finger_press", "coarse"), ("finger_press", "fine"), ("pinch", "coarse"),
-            ("pinch", "fine")),
+    False: (("finger_press", "coarse"), ("finger_press", "fingertips"), ("finger_press", "fine"),
+            ("pinch", "coarse"), ("pinch", "fingertips"), ("pinch", "fine")),
     True: (("pinch", "coarse"),),
 }  # fmt: skip
 #: The scenes whose ball is held in place.
