@@ -1,9 +1,10 @@
 """A finger's force against its flexion: the fine hand meets a ball by weighted gaps.
 
 ``benchmarks/flexion.py`` sweeps a finger by 0.05 deg steps through first touch. Here a
-few steps: the index pinching a ball held in place (coarse hand), and pressing the
-finger-press ball (fine hand, slow): by weighted gaps the force starts near where node
-rows' does and grows in steady increments, no node entering makes it jump.
+few steps: the index pressing the finger-press ball (the fingertips hand; the fine one,
+slow) and pinching a ball held in place (the coarse hand, slow): by weighted gaps the force
+starts near where node rows' does and grows in steady increments, no node entering makes
+it jump.
 """
 
 from __future__ import annotations
@@ -46,6 +47,7 @@ def test_the_hand_meets_an_object_by_one_weighted_pair_where_gaps_ask() -> None:
         "hand", "ball", True, 0.5)  # fmt: skip
 
 
+@pytest.mark.slow
 def test_the_coarse_pinch_by_weighted_gaps_starts_at_touch_and_grows_steadily() -> None:
     force, _ = _press("weighted", 8, "pinch", "coarse")
     on = np.flatnonzero(force > 0)[0]
@@ -54,9 +56,11 @@ def test_the_coarse_pinch_by_weighted_gaps_starts_at_touch_and_grows_steadily() 
     assert (d > 0).all() and d.max() <= 1.5 * np.median(d), d
 
 
-@pytest.mark.slow
-def test_weighted_gaps_on_the_fine_hand_grow_the_force_without_jumps() -> None:
-    force, _ = _press("weighted", 8)
+@pytest.mark.parametrize(
+    "hand", ["fingertips", pytest.param("fine", marks=pytest.mark.slow)]
+)
+def test_weighted_gaps_on_a_fine_fingertip_grow_the_force_without_jumps(hand: str) -> None:
+    force, _ = _press("weighted", 8, hand=hand)
     on = np.flatnonzero(force > 0)[0]
     # a weighted gap closes once the press passes the mean overlap over a node's faces:
     # within 0.2 deg (about 0.2 mm) of first touch by the fingertip's nodes
