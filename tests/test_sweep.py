@@ -223,6 +223,7 @@ def test_a_worker_killed_during_a_run_is_resubmitted(tmp_path, monkeypatch):
     assert not alive, [k.cmdline() for k in alive]
 
 
+@pytest.mark.slow  # the worker's death and resubmission: test_a_worker_killed_during_a_run
 def test_a_run_whose_worker_dies_past_the_allowed_failures_is_a_failed_row(tmp_path, monkeypatch):
     import contact.sweep.cluster
 
