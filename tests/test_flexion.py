@@ -1,4 +1,4 @@
-"""A finger's force against its flexion: the fine hand meets a ball by weighted gaps.
+"""A finger's force against its flexion: the hand meets a ball by weighted gaps.
 
 ``benchmarks/flexion.py`` sweeps a finger by 0.05 deg steps through first touch. Here a
 few steps: the index pressing the finger-press ball (the fingertips hand; the fine one,

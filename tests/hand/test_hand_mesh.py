@@ -109,6 +109,8 @@ def test_the_fingertips_hand_is_fine_at_the_tips_and_coarse_elsewhere():
         assert _tip_edges(tips, finger) < 1.2 * FINGERTIPS.tip_edge, finger
         assert _tip_edges(coarse, finger) > 1.4 * _tip_edges(tips, finger), finger
     assert tips.flesh.n_points < 0.6 * fine.flesh.n_points
+    # meshed from the fine skin (test_hand_skin checks that one)
+    np.testing.assert_array_equal(surface_arrays(tips.skin)[0], surface_arrays(fine.skin)[0])
 
 
 def test_load_hand_errors(tmp_path):
