@@ -71,6 +71,7 @@ COLUMNS = (
     Column("largest", "largest step (%)", ".1f"),
     Column("jump", "largest / median step", ".2f"),
     Column("rows", "hand rows at the end", "d"),
+    Column("unsettled", "frames not converged", "d"),
     Column("frame_s", "frame (s)", ".2f"),
     Column("met", "goal"),
 )
@@ -133,7 +134,8 @@ def sweep(scene: Scene, steps: int, fixed: bool = False) -> tuple[list[dict], fl
 
 
 def summary(steps: list[dict], touch: float) -> dict:
-    """The sweep's figures: first force, end force, largest step (% of the end), jump."""
+    """The sweep's figures: first force, end force, largest step (% of the end), jump, and
+    how many frames did not converge (a free ball that touches nothing yet is not held)."""
     f = np.array([s["force"] for s in steps])
     a = np.array([s["angle"] for s in steps])
     d = np.abs(np.diff(f))
@@ -146,6 +148,7 @@ def summary(steps: list[dict], touch: float) -> dict:
         "end_force": float(f[-1]), "largest": largest,
         "jump": float(d.max() / median) if median > 0 else float("nan"),
         "rows": steps[-1]["rows"], "frame_s": float(np.mean([s["frame_s"] for s in steps])),
+        "unsettled": sum(s["stop"] != "converged" for s in steps),
         "met": "met" if largest <= 100 * GOAL else "MISSED",
     }  # fmt: skip
 
@@ -170,7 +173,8 @@ def run(quick: bool = False, out: str | Path | None = None) -> list[dict]:
     write_csv(folder / "flexion.csv", curves,
               ["scene", "hand", "gaps", "angle", "force", "rows", "frame_s", "stop"])  # fmt: skip
     note = (f"Steps of {STEP} deg from {BEFORE} steps before first touch; flesh and ball "
-            f"linear. Goal: no step above {100 * GOAL:.0f} % of the end force.")  # fmt: skip
+            f"linear. Goal: no step above {100 * GOAL:.0f} % of the end force. A frame not "
+            "converged counts its force as solved (the stop of each is in the CSV).")  # fmt: skip
     sections = [("Per scene, hand and gaps", note + "\n\n" + markdown_table(rows, COLUMNS))]
     write_markdown(folder / "flexion.md", "A finger's force against its flexion", info,
                    sections)  # fmt: skip
