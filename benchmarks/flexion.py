@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from contact.hand.autoflex import auto_flex, mesh_distance
+from contact.hand.fingers import node_parts
 from contact.run.grasprun import GraspRun
 from contact.run.rolling import solve_rolled
 from contact.scene import Scene, load_scene
@@ -117,7 +118,7 @@ def sweep(scene: Scene, steps: int, fixed: bool = False) -> tuple[list[dict], fl
     joint, finger, touch, angles = touch_angle(run, t)
     assert run.hand is not None
     part = run.hand.part_names.index(finger)
-    parts = run._parts()
+    parts = node_parts(run.hand.flesh, len(run.hand.part_names))
     out = []
     for k in range(-BEFORE, steps + 1):
         pose = {**angles, joint: touch + STEP * k}
