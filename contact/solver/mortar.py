@@ -411,8 +411,9 @@ def mortar_coupling(
     slaves = [_Facets.of(xs_all, b, "slave") for b in s_blocks]
     masters = [_Facets.of(xm_all, b, "master") for b in m_blocks]
     # each block's corner normals, to measure the gaps between the smoothed surfaces
-    s_corner = list(corner_normals(xs_all, dict(enumerate(s_blocks))).values())
-    m_corner = list(corner_normals(xm_all, dict(enumerate(m_blocks))).values())
+    if smooth:
+        s_corner = list(corner_normals(xs_all, dict(enumerate(s_blocks))).values())
+        m_corner = list(corner_normals(xm_all, dict(enumerate(m_blocks))).values())
     # tributary areas over the whole slave surface
     trib = np.zeros(ns_pts)
     for s in slaves:
