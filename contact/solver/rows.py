@@ -11,8 +11,10 @@ rows come from measured gaps (:mod:`contact.solver.pairs`); mortar rows
 
 from __future__ import annotations
 
+import hashlib
+from collections import OrderedDict
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -251,16 +253,51 @@ def _padded(a: sp.csr_matrix, scale: NDArray[np.float64]) -> tuple[NDArray, NDAr
     return nodes, coef
 
 
+#: The last couplings between bodies, by their surfaces' fingerprint: a run's frames whose
+#: planes move and whose bodies stay (a ball on a block under a plate) integrate them once.
+_KEPT: OrderedDict[bytes, MortarCandidates] = OrderedDict()
+KEEP = 8
+
+
+def _fingerprint(pair: ContactPair, search: float) -> bytes:
+    """What a coupling between bodies depends on: both surfaces' points and facets, ``search``."""
+    h = hashlib.blake2b(digest_size=20)
+    for body in (pair.slave, pair.master):
+        h.update(repr(body.mesh.points.shape).encode())
+        h.update(np.ascontiguousarray(body.mesh.points, dtype=np.float64).tobytes())
+        for kind, f in body.contact_faces.faces.items():
+            h.update(f"{kind}{f.shape}".encode())
+            h.update(np.ascontiguousarray(f, dtype=np.int64).tobytes())
+    h.update(np.float64(search).tobytes())
+    return h.digest()
+
+
 def mortar_candidates(pair: ContactPair, index: int, search: float) -> MortarCandidates:
     """The mortar rows of a pair, one per covered slave node.
 
-    Against a body :mod:`contact.solver.mortar`'s; against a plane
+    Against a body :mod:`contact.solver.mortar`'s, integrated once for the same two
+    surfaces (the last :data:`KEEP` are kept, read-only); against a plane
     :mod:`contact.solver.planemortar`'s, on the slave's smoothed surface, the plane where
     the frame places it.
     """
     slave, master = pair.slave, pair.master
     if isinstance(master, Plane):
         return _plane_candidates(slave, master, index)
+    key = _fingerprint(pair, search)
+    kept = _KEPT.get(key)
+    if kept is None:
+        kept = _body_candidates(slave, master, search)
+        _KEPT[key] = kept
+        while len(_KEPT) > KEEP:
+            _KEPT.popitem(last=False)
+    else:
+        _KEPT.move_to_end(key)
+    rows = replace(kept.rows, pair=np.full(len(kept.rows), index, np.int64))
+    return replace(kept, rows=rows)
+
+
+def _body_candidates(slave: ElasticBody, master: ElasticBody, search: float) -> MortarCandidates:
+    """The mortar rows of ``slave``'s contact faces against ``master``'s (pair index 0)."""
     c = mortar_coupling(
         slave.mesh.points,
         slave.contact_faces.faces,
@@ -273,7 +310,7 @@ def mortar_candidates(pair: ContactPair, index: int, search: float) -> MortarCan
     s_nodes, s_coef = _padded(c.d, scale)
     m_nodes, m_coef = _padded(c.m, scale)
     rows = ContactRows(
-        np.full(k, index, np.int64),
+        np.zeros(k, np.int64),
         c.slave_nodes.copy(),
         c.normals.copy(),
         c.mean_gap0.copy(),
@@ -282,8 +319,11 @@ def mortar_candidates(pair: ContactPair, index: int, search: float) -> MortarCan
         m_nodes,
         m_coef,
     )
+    area = c.area.copy()
+    for a in (rows.node, rows.normal, rows.g0, s_nodes, s_coef, m_nodes, m_coef, area):
+        a.setflags(write=False)  # kept for later frames: shared, never changed
     e_s, e_m = c.rows(slave.mesh.n_points, master.mesh.n_points)
-    return MortarCandidates(rows, e_s.tocsr(), e_m.tocsr(), c.area.copy())
+    return MortarCandidates(rows, e_s.tocsr(), e_m.tocsr(), area)
 
 
 def _plane_candidates(slave: ElasticBody, plane: Plane, index: int) -> MortarCandidates:

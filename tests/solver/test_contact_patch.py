@@ -79,3 +79,31 @@ def test_node_to_surface_does_not_pass_it():
         for sigma in stresses(body, res).values()
     )
     assert worst > 0.05 * P
+
+
+def test_a_coupling_is_integrated_once_for_the_same_surfaces(monkeypatch):
+    """A frame between the same two surfaces reuses the kept coupling, read-only, with the
+    same answer; a body moved by a round-off of its size is integrated anew."""
+    import contact.solver.rows as rows_mod
+
+    calls = []
+    real = rows_mod.mortar_coupling
+    monkeypatch.setattr(
+        rows_mod, "mortar_coupling", lambda *a, **k: calls.append(1) or real(*a, **k)
+    )
+    monkeypatch.setattr(rows_mod, "_KEPT", type(rows_mod._KEPT)())
+    upper, lower = blocks(1.0)
+    first = rows_mod.mortar_candidates(ContactPair(upper, lower, mortar=True), 0, 0.1)
+    again = rows_mod.mortar_candidates(ContactPair(upper, lower, mortar=True), 3, 0.1)
+    assert len(calls) == 1
+    assert (again.rows.pair == 3).all() and (first.rows.pair == 0).all()
+    assert np.array_equal(again.rows.g0, first.rows.g0)
+    with pytest.raises(ValueError):
+        again.rows.g0[0] = 1.0  # shared with later frames: never written
+    moved = upper.translated(upper.mesh.points * (1 + 1e-15))
+    rows_mod.mortar_candidates(ContactPair(moved, lower, mortar=True), 0, 0.1)
+    assert len(calls) == 2
+    res = [solve_frame([upper, lower], [ContactPair(upper, lower, mortar=True)], [],
+                       ContactSettings()) for _ in range(2)]  # fmt: skip
+    assert len(calls) == 3  # the frames' search differs from 0.1: once more, then kept
+    assert np.array_equal(res[0].contacts["force"], res[1].contacts["force"])
