@@ -23,6 +23,7 @@ BENCHMARKS = (
     "lcp",
     "frame",
     "patch",
+    "patch_gaps",
     "plates",
     "flexion",
     "friction",

@@ -159,8 +159,10 @@ def _symmetry_dofs(mesh: fem.Mesh) -> np.ndarray:
     return np.concatenate([3 * np.flatnonzero(np.abs(d[:, k]) <= tol) + k for k in range(3)])
 
 
-def _press(mesh: fem.Mesh, depth: float) -> tuple[ElasticBody, list[Plane], dict, object]:
-    """Build the body and solve the press; the times and the result."""
+def _press(
+    mesh: fem.Mesh, depth: float, weighted: bool = False
+) -> tuple[ElasticBody, list[Plane], dict, object]:
+    """Build the body and solve the press (by ``weighted`` gaps); the times and the result."""
     gc.collect()
     t0 = time.perf_counter()
     body = ElasticBody(
@@ -168,21 +170,23 @@ def _press(mesh: fem.Mesh, depth: float) -> tuple[ElasticBody, list[Plane], dict
     )
     t1 = time.perf_counter()
     planes = [Plane([0, 0, 0], [0, 0, 1], motion=[0, 0, depth * RADIUS], name="table")]
-    res = solve_rigid_contact(body, planes)
+    res = solve_rigid_contact(body, planes, weighted=weighted)
     t2 = time.perf_counter()
     return body, planes, {"assemble": t1 - t0, "solve": t2 - t1}, res
 
 
-def run_case(mesh: fem.Mesh, fine_size: float, depth: float, layered: bool = False) -> dict:
-    """One press of one mesh: a row of the study (see ``COLUMNS``).
+def run_case(
+    mesh: fem.Mesh, fine_size: float, depth: float, layered: bool = False, weighted: bool = False
+) -> dict:
+    """One press of one mesh: a row of the study (see ``COLUMNS``), by ``weighted`` gaps.
 
     A press under :data:`QUICK_PRESS` seconds is timed :data:`REPEAT` times and its
     fastest run kept, as the plain factorisation and solve it is set against is.
     """
-    body, planes, secs, res = _press(mesh, depth)
+    body, planes, secs, res = _press(mesh, depth, weighted)
     if secs["assemble"] + secs["solve"] < QUICK_PRESS:
         for _ in range(REPEAT - 1):
-            again = _press(mesh, depth)
+            again = _press(mesh, depth, weighted)
             if again[2]["solve"] < secs["solve"]:
                 body, planes, secs, res = again
     factor = body.solver.factor_time
@@ -204,7 +208,10 @@ def run_case(mesh: fem.Mesh, fine_size: float, depth: float, layered: bool = Fal
         "cells_per_a": a_d / fine_size,
         "updates": res.iterations,
         "converged": res.converged,
-        "rows": len(res.contact_nodes),
+        # node rows: the contact nodes; weighted: the closed rows (their forces spread
+        # over each row's facets, onto more nodes)
+        "rows": res.history[-1].n_contacts if weighted else len(res.contact_nodes),
+        "gaps": "weighted" if weighted else "nodal",
         "back_solves": body.solver.n_back_solves,
         "partial_solves": body.solver.n_partial_solves,
         "marked": int(body.solver.marked.size),

@@ -137,20 +137,24 @@ def run(quick: bool = False, out: str | Path | None = None) -> list[dict]:
             # press pays its solve
             body = ball(element, size)
             under = block(size) if on_block else None
-            _press(body, PRESSES[-1], weighted, under)
+            # the first frame factors the bodies and integrates a coupling between them;
+            # the later ones reuse both (the same surfaces)
+            first = _press(body, PRESSES[-1], weighted, under)[-1]
             for press in PRESSES:
                 force, n, lower, took = _press(body, press, weighted, under)
                 rows.append({
                     "mesh": label, "gaps": "weighted" if weighted else "nodal",
                     "press_mm": 1e3 * press, "force": force, "hertz": hertz(press),
                     "error": 100 * (force / hertz(press) - 1), "rows": n, "lower": lower,
-                    "frame_s": took, "dofs": body.mesh.n_dofs, "load": load_average(),
+                    "frame_s": took, "first_s": first, "dofs": body.mesh.n_dofs,
+                    "load": load_average(),
                 })  # fmt: skip
         print(f"[plates] {label}: " + ", ".join(
             f"{r['gaps']} {r['press_mm']:.1f} mm {r['error']:+.1f} %"
             for r in rows if r["mesh"] == label and r["press_mm"] in (0.6, 1.0)
         ), flush=True)  # fmt: skip
-    write_csv(folder / "plates.csv", rows, [c.key for c in COLUMNS] + ["dofs", "load"])
+    write_csv(folder / "plates.csv", rows,
+              [c.key for c in COLUMNS] + ["first_s", "dofs", "load"])  # fmt: skip
     sections = [("Per mesh, gaps and press", markdown_table(rows, COLUMNS)),
                 ("Goals", goals(rows))]  # fmt: skip
     write_markdown(folder / "plates.md", "A ball between plates: node rows and weighted gaps",
@@ -246,16 +250,24 @@ def goals(rows: list[dict]) -> str:
         lines.append(f"| the force monotone in the approach ({g}) | "
                      f"{'every mesh' if not bad else 'not on ' + ', '.join(bad)} | | "
                      f"{'met' if not bad else 'MISSED'} |")  # fmt: skip
-    ratio = {
-        m: sum(r["frame_s"] for r in rows if r["mesh"] == m and r["gaps"] == "weighted")
-        / sum(r["frame_s"] for r in rows if r["mesh"] == m and r["gaps"] == "nodal")
-        for m in {r["mesh"] for r in rows}
-    }
+    ratio = _ratio(rows, "frame_s")
     worst = max(ratio.values())
     lines.append(f"| a frame <= 1.5x the node rows' | "
                  f"{', '.join(f'{m} x{v:.2f}' for m, v in sorted(ratio.items()))} | | "
                  f"{'met' if worst <= 1.5 else 'MISSED'} |")  # fmt: skip
+    first = _ratio(rows, "first_s")
+    listed = ", ".join(f"{m} x{v:.2f}" for m, v in sorted(first.items()))
+    lines.append(f"| the first frame (bodies factored, a coupling integrated) | {listed} | | |")
     return "\n".join(lines)
+
+
+def _ratio(rows: list[dict], key: str) -> dict[str, float]:
+    """Per mesh, the weighted rows' total ``key`` time over the node rows'."""
+    return {
+        m: sum(r[key] for r in rows if r["mesh"] == m and r["gaps"] == "weighted")
+        / sum(r[key] for r in rows if r["mesh"] == m and r["gaps"] == "nodal")
+        for m in {r["mesh"] for r in rows}
+    }
 
 
 def _monotone(rows: list[dict], gaps: str) -> set[str]:

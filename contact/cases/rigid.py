@@ -34,6 +34,7 @@ def solve_rigid_contact(
     max_iterations: int = 50,
     gap_tolerance: float = ContactSettings.gap_tolerance,
     force_tolerance: float = ContactSettings.force_tolerance,
+    weighted: bool = False,
 ) -> ContactResult:
     """Resolve the contact of an elastic body with rigid frictionless planes.
 
@@ -51,6 +52,9 @@ def solve_rigid_contact(
     force_tolerance : float
         ``ContactSettings.force_tolerance``: a contact pulling by less than this fraction
         of the largest force is not released.
+    weighted : bool
+        Weighted gaps over the body's smoothed faces (one mortar row per covered node,
+        :mod:`contact.solver.planemortar`) instead of a row per node.
 
     Returns
     -------
@@ -70,7 +74,7 @@ def solve_rigid_contact(
         gap_tolerance=gap_tolerance,
         force_tolerance=force_tolerance,
     )
-    pairs = [ContactPair(body, p) for p in planes]
+    pairs = [ContactPair(body, p, mortar=weighted) for p in planes]
     res = solve_frame([body], pairs, list(planes), settings)
     if res.stop_reason.startswith("not held"):
         raise ContactError(f"{body.name}: nothing holds it: {res.stop_reason}")
