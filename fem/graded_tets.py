@@ -241,4 +241,27 @@ def _snapped(mesh: Mesh, radius: float, center: NDArray[np.float64], tol: float)
     sphere &= r > 0
     d[sphere] *= (radius / r[sphere])[:, None]
     p[nodes] = center + d
-    return Mesh(p, mesh.cells)
+    return _without_flat(p, mesh.cells["tetra"], nodes)
+
+
+def _without_flat(
+    points: NDArray[np.float64], tets: NDArray[np.int64], boundary: NDArray[np.int64]
+) -> Mesh:
+    """The tetrahedra less the slivers that snapping flattened onto the boundary.
+
+    A sliver whose four nodes all lie on the boundary (at an edge between a cut plane and
+    the sphere) can come out flat once they are snapped: it fills no volume, and its
+    neighbours' faces close the boundary where it lay. Nodes no cell keeps are dropped.
+    """
+    x = points[tets]
+    vol = np.einsum("ij,ij->i", np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), x[:, 3] - x[:, 0])
+    on = np.zeros(len(points), dtype=bool)
+    on[boundary] = True
+    flat = (np.abs(vol) <= 1e-9 * np.abs(vol).mean()) & on[tets].all(axis=1)
+    if not flat.any():
+        return Mesh(points, {"tetra": tets})
+    kept = tets[~flat]
+    used = np.unique(kept)
+    renumber = np.full(len(points), -1, dtype=np.int64)
+    renumber[used] = np.arange(used.size)
+    return Mesh(points[used], {"tetra": renumber[kept]})

@@ -74,3 +74,22 @@ def test_graded_tet_octant_is_exact_on_its_boundary_and_finer_at_the_pole():
     edge = np.linalg.norm(x[:, 1] - x[:, 0], axis=1)
     dist = np.linalg.norm(x.mean(axis=1), axis=1)
     assert np.median(edge[dist < 0.15]) < 0.5 * np.median(edge[dist > 0.6])
+
+
+def test_a_sliver_snapping_flattened_on_the_boundary_is_dropped():
+    """A tetrahedron whose four boundary nodes snapped into one plane fills nothing: it is
+    dropped (its neighbours close the boundary); one with an interior node is not."""
+    from fem.errors import MeshError
+    from fem.graded_tets import _without_flat
+
+    box = fem.box_mesh((1.0, 1.0, 1.0), (2, 2, 2), element="tetra")
+    tets = box.cells["tetra"]
+    boundary = np.unique(box.boundary.faces["triangle"])
+    flat = np.flatnonzero(box.points[:, 2] == 0.0)[:4]  # on the face z = 0: coplanar
+    mesh = _without_flat(box.points, np.vstack([tets, flat]), boundary)
+    assert np.array_equal(mesh.cells["tetra"], tets) and mesh.n_points == box.n_points
+    assert mesh.volumes["tetra"].sum() == pytest.approx(1.0, rel=1e-12)
+    centre = int(np.argmin(np.linalg.norm(box.points - 0.5, axis=1)))  # interior
+    flat_inside = [centre, *np.flatnonzero(box.points[:, 2] == 0.5)[:3]]  # z = 0.5 plane
+    with pytest.raises(MeshError, match="degenerate"):
+        _without_flat(box.points, np.vstack([tets, flat_inside]), boundary)
