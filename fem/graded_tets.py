@@ -25,7 +25,11 @@ from .generators import graded_ball_mesh
 from .mesh import Mesh
 from .meshing import tetrahedralize
 
-__all__ = ["graded_octant_surface", "graded_tet_octant", "octant_sizing_field"]
+__all__ = ["SLIVER", "graded_octant_surface", "graded_tet_octant", "octant_sizing_field"]
+
+#: A tetrahedron of boundary nodes left with less than this fraction of the mean volume
+#: (or turned) once its nodes are snapped is a flattened sliver: it is dropped.
+SLIVER = 1e-6
 
 
 def _size_at(
@@ -250,14 +254,15 @@ def _without_flat(
     """The tetrahedra less the slivers that snapping flattened onto the boundary.
 
     A sliver whose four nodes all lie on the boundary (at an edge between a cut plane and
-    the sphere) can come out flat once they are snapped: it fills no volume, and its
+    the sphere) can come out flat, or turned by round-off, once they are snapped: its
+    volume, below :data:`SLIVER` of the mean, is nothing of the octant's, and its
     neighbours' faces close the boundary where it lay. Nodes no cell keeps are dropped.
     """
     x = points[tets]
     vol = np.einsum("ij,ij->i", np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), x[:, 3] - x[:, 0])
     on = np.zeros(len(points), dtype=bool)
     on[boundary] = True
-    flat = (np.abs(vol) <= 1e-9 * np.abs(vol).mean()) & on[tets].all(axis=1)
+    flat = (vol <= SLIVER * np.abs(vol).mean()) & on[tets].all(axis=1)
     if not flat.any():
         return Mesh(points, {"tetra": tets})
     kept = tets[~flat]

@@ -89,6 +89,14 @@ def test_a_sliver_snapping_flattened_on_the_boundary_is_dropped():
     mesh = _without_flat(box.points, np.vstack([tets, flat]), boundary)
     assert np.array_equal(mesh.cells["tetra"], tets) and mesh.n_points == box.n_points
     assert mesh.volumes["tetra"].sum() == pytest.approx(1.0, rel=1e-12)
+    # turned by round-off: the same sliver, one node 1e-9 through the others' plane
+    pts = box.points.copy()
+    pts[flat[3], 2] = -1e-9
+    x = pts[flat]
+    if np.cross(x[1] - x[0], x[2] - x[0]) @ (x[3] - x[0]) > 0:
+        flat = flat[[1, 0, 2, 3]]
+    turned = _without_flat(pts, np.vstack([tets, flat]), boundary)
+    assert np.array_equal(turned.cells["tetra"], tets)
     centre = int(np.argmin(np.linalg.norm(box.points - 0.5, axis=1)))  # interior
     flat_inside = [centre, *np.flatnonzero(box.points[:, 2] == 0.5)[:3]]  # z = 0.5 plane
     with pytest.raises(MeshError, match="degenerate"):
