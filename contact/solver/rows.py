@@ -12,6 +12,7 @@ rows come from measured gaps (:mod:`contact.solver.pairs`); mortar rows
 from __future__ import annotations
 
 import hashlib
+import threading
 from collections import OrderedDict
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -257,6 +258,7 @@ def _padded(a: sp.csr_matrix, scale: NDArray[np.float64]) -> tuple[NDArray, NDAr
 #: planes move and whose bodies stay (a ball on a block under a plate) integrate them once.
 _KEPT: OrderedDict[bytes, MortarCandidates] = OrderedDict()
 KEEP = 8
+_LOCK = threading.Lock()  # a sweep's threads may share the module
 
 
 def _fingerprint(pair: ContactPair, search: float) -> bytes:
@@ -287,11 +289,11 @@ def mortar_candidates(pair: ContactPair, index: int, search: float) -> MortarCan
     kept = _KEPT.get(key)
     if kept is None:
         kept = _body_candidates(slave, master, search)
+    with _LOCK:
         _KEPT[key] = kept
+        _KEPT.move_to_end(key)
         while len(_KEPT) > KEEP:
             _KEPT.popitem(last=False)
-    else:
-        _KEPT.move_to_end(key)
     rows = replace(kept.rows, pair=np.full(len(kept.rows), index, np.int64))
     return replace(kept, rows=rows)
 
