@@ -192,7 +192,8 @@ def graded_tet_octant(
     Returns
     -------
     Mesh
-        Tetrahedra; boundary nodes exactly on the sphere and the three cut planes.
+        Tetrahedra; boundary nodes exactly on the sphere and the three cut planes, but
+        the few whose snap would turn a cell (left within fTetWild's envelope).
 
     Raises
     ------
@@ -233,9 +234,11 @@ def _snapped(mesh: Mesh, radius: float, center: NDArray[np.float64], tol: float)
     of the sphere, goes radially onto the sphere (a node on a plane stays on it).
     fTetWild leaves nodes up to about its envelope off the surface, a few near the
     sphere's coarse facets further: a node's own surfaces, not its triangles' normals,
-    tell where it belongs.
+    tell where it belongs. Where a snap would turn a cell with an inner node, the cell's
+    furthest snapped node stays where fTetWild put it (within its envelope of the surface).
     """
     p = mesh.points.copy()
+    tets = mesh.cells["tetra"]
     nodes = np.unique(mesh.boundary.faces["triangle"])
     d = p[nodes] - center
     near = np.abs(d) <= tol  # (m, 3): on the plane x_k = 0
@@ -245,7 +248,23 @@ def _snapped(mesh: Mesh, radius: float, center: NDArray[np.float64], tol: float)
     sphere &= r > 0
     d[sphere] *= (radius / r[sphere])[:, None]
     p[nodes] = center + d
-    return _without_flat(p, mesh.cells["tetra"], nodes)
+    on = np.zeros(len(p), dtype=bool)
+    on[nodes] = True
+    moved = np.linalg.norm(p - mesh.points, axis=1)
+    for _ in range(4):  # each round takes back the furthest snapped node of each turned cell
+        vol = _volumes(p, tets)
+        bad = tets[(vol <= SLIVER * np.abs(vol).mean()) & ~on[tets].all(axis=1)]
+        if not len(bad):
+            break
+        back = bad[np.arange(len(bad)), np.argmax(moved[bad], axis=1)]
+        p[back], moved[back] = mesh.points[back], 0.0
+    return _without_flat(p, tets, nodes)
+
+
+def _volumes(points: NDArray[np.float64], tets: NDArray[np.int64]) -> NDArray[np.float64]:
+    """Six times each tetrahedron's signed volume."""
+    x = points[tets]
+    return np.einsum("ij,ij->i", np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), x[:, 3] - x[:, 0])
 
 
 def _without_flat(
@@ -258,8 +277,7 @@ def _without_flat(
     volume, below :data:`SLIVER` of the mean, is nothing of the octant's, and its
     neighbours' faces close the boundary where it lay. Nodes no cell keeps are dropped.
     """
-    x = points[tets]
-    vol = np.einsum("ij,ij->i", np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), x[:, 3] - x[:, 0])
+    vol = _volumes(points, tets)
     on = np.zeros(len(points), dtype=bool)
     on[boundary] = True
     flat = (vol <= SLIVER * np.abs(vol).mean()) & on[tets].all(axis=1)

@@ -101,3 +101,28 @@ def test_a_sliver_snapping_flattened_on_the_boundary_is_dropped():
     flat_inside = [centre, *np.flatnonzero(box.points[:, 2] == 0.5)[:3]]  # z = 0.5 plane
     with pytest.raises(MeshError, match="degenerate"):
         _without_flat(box.points, np.vstack([tets, flat_inside]), boundary)
+
+
+def test_a_snap_that_would_turn_a_cell_with_an_inner_node_is_taken_back():
+    """Four tetrahedra about an inner node just inside a boundary node outside the sphere:
+    snapping that node onto the sphere would pass the inner node and turn cells;
+    it stays where it was, the other boundary nodes are snapped."""
+    from fem.graded_tets import _snapped, _volumes
+
+    ways = ([0.3, 0.3, -0.9], [0.5, 0.1, -0.9], [0.1, 0.5, -0.9], [0.45, 0.45, -0.6])
+    unit = [np.asarray(v, float) / np.linalg.norm(v) for v in ways]
+    corners = np.array([1.005 * unit[0], *(unit[1:])])
+    corners[1:] *= 1.0 + np.array([1e-4, -1e-4, 2e-4])[:, None]  # near the sphere
+    inner = corners[0] + 0.002 * (corners.mean(axis=0) - corners[0])
+    pts = np.vstack([corners, inner])
+    faces = ([1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1])
+    tets = np.array([[*f, 4] for f in faces])
+    tets[_volumes(pts, tets) < 0] = tets[_volumes(pts, tets) < 0][:, [1, 0, 2, 3]]
+    assert (_volumes(pts, tets) > 0).all()
+    snapped = pts.copy()
+    snapped[:4] /= np.linalg.norm(snapped[:4], axis=1)[:, None]
+    assert (_volumes(snapped, tets) < 0).sum() >= 2  # a plain snap turns cells
+    out = _snapped(fem.Mesh(pts, {"tetra": tets}), 1.0, np.zeros(3), 1e-9)
+    r = np.linalg.norm(out.points, axis=1)
+    assert r[0] == 1.005 and np.allclose(r[1:4], 1.0, rtol=0, atol=1e-15)
+    assert (_volumes(out.points, out.cells["tetra"]) > 0).all()
