@@ -140,7 +140,7 @@ class FrameState:
         for i, pair in enumerate(self.pairs):
             if i in self.mortar:
                 for name, nodes, near in self.contacts.mortar_zone(i, u):
-                    zone[name].append((nodes, near, every))
+                    zone[name].append((nodes, near, pair.touched))  # a plane's: its normal
                 continue
             wide = 3.0 * self.margin
             p = self.measure_pair(i, u, wide)

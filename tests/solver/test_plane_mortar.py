@@ -224,6 +224,7 @@ def test_a_weighted_pair_marks_its_patch_and_a_ring_not_every_candidate(monkeypa
 
     def spy(self, nodes, near, touched=None):
         marked[self.name] = np.unique(nodes)
+        marked["components"] = np.unique(np.asarray(touched), axis=0)
         return orig(self, nodes, near, touched)
 
     monkeypatch.setattr(ElasticBody, "mark_zone", spy)
@@ -238,3 +239,6 @@ def test_a_weighted_pair_marks_its_patch_and_a_ring_not_every_candidate(monkeypa
     # the rows closed: their nodes' faces all marked
     closed = np.asarray(res.contacts["node"])
     assert closed.size and np.isin(closed, marked["ball"]).all()
+    # frictionless rows against planes across z move the nodes along z only: only that
+    # component is marked (all three would make the factor's trailing block 3x larger)
+    assert marked["components"].tolist() == [[False, False, True]]
