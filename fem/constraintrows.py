@@ -12,6 +12,8 @@ at any load.
 
 from __future__ import annotations
 
+import inspect
+import weakref
 from collections.abc import Callable
 from itertools import pairwise
 from typing import TYPE_CHECKING
@@ -53,6 +55,22 @@ def back_solve_cost(fact: Factorization) -> float:
 def factor_cost(fact: Factorization) -> float:
     """Operations of a factorisation (``factor_flops``), its set-up counted in back-solves."""
     return fact.factor_flops + FACTOR_OVERHEAD * back_solve_cost(fact)
+
+
+def _weak(f: Callable | None) -> Callable | None:
+    """A bound method, called without holding its object.
+
+    The solver that owns these rows hands them its methods: held strongly, they would
+    close a cycle through it, and its factorisation would wait for the garbage collector.
+    """
+    if f is None or not inspect.ismethod(f):
+        return f
+    ref = weakref.WeakMethod(f)
+
+    def call(*args: object, **kwargs: object) -> object:
+        return ref()(*args, **kwargs)  # type: ignore[misc]
+
+    return call
 
 
 class ConstraintRows:
@@ -119,18 +137,18 @@ class ConstraintRows:
         buy: float = np.inf,
         column: float = 0.0,
     ) -> None:
-        self._inverse = inverse
-        self._widen = widen
+        self._inverse = _weak(inverse)
+        self._widen = _weak(widen)
         self._buy = buy
         self._column = column
         #: Floating-point operations of back-solves so far (rows off the marks).
         self.rent = 0.0
-        self._partial = partial
+        self._partial = _weak(partial)
         self._frow = frow
         self._marks = marked
         self._n_factored = n_factored
         self._modes = modes
-        self._j_phi = j_phi
+        self._j_phi = _weak(j_phi)
         self.reset()
 
     def reset(self) -> None:

@@ -100,17 +100,22 @@ def solve_frame(
     settings = settings or ContactSettings()
     with fem.sparse_threads():  # the cores are PARDISO's: no spinning OpenBLAS workers
         frame = FrameState(bodies, planes, pairs, settings, callback=callback)
-        frame.mark_zones(*friction_zone(frame, anchors))
-        if settings.algorithm == "seed":
-            if any(p.friction for p in pairs):
-                raise ContactError(
-                    "the seed loop takes no friction: set solver.algorithm = "
-                    '"contact-space" or every friction to 0'
-                )
-            if frame.driven:
-                raise ContactError(
-                    "the seed loop takes no force-driven plane: set solver.algorithm = "
-                    '"contact-space"'
-                )
-            return solve_seed(frame, dirichlet or frame.bodies[0].name)
-        return solve_contact_space(frame, anchors, search_from, slip_from, prox)
+        try:
+            frame.mark_zones(*friction_zone(frame, anchors))
+            if settings.algorithm == "seed":
+                if any(p.friction for p in pairs):
+                    raise ContactError(
+                        "the seed loop takes no friction: set solver.algorithm = "
+                        '"contact-space" or every friction to 0'
+                    )
+                if frame.driven:
+                    raise ContactError(
+                        "the seed loop takes no force-driven plane: set solver.algorithm = "
+                        '"contact-space"'
+                    )
+                return solve_seed(frame, dirichlet or frame.bodies[0].name)
+            return solve_contact_space(frame, anchors, search_from, slip_from, prox)
+        finally:
+            # the contact set refers back to its frame: without the cycle, the frame's
+            # bodies and factorisations go as soon as the caller lets them go
+            del frame.contacts
