@@ -166,12 +166,13 @@ def test_hertz_between_plates_on_coarse_bricks(size, press, within):
 def test_the_scene_key_weighs_the_plates_gaps(tmp_path):
     """``[solver] gaps = "weighted"``: the shipped plates' ball from the CLI, 3 mm bricks."""
     text = (Path(__file__).parents[2] / "examples" / "hertz_plates.toml").read_text()
-    text = text.replace("count = 6 ", "times = [0.6, 1.0]\n# count = 6 ")
+    text = text.replace("times = [0.2, 0.4, 0.6, 0.8, 1.0]", "times = [0.6, 1.0]")
     text = text.replace("pictures = true", "pictures = false")
+    assert 'gaps = "weighted"' in text and "times = [0.6, 1.0]" in text
     forces = {}
     for gaps in ("nodal", "weighted"):
         scene = tmp_path / f"{gaps}.toml"
-        scene.write_text(text.replace("[solver]", f'[solver]\ngaps = "{gaps}"'))
+        scene.write_text(text.replace('gaps = "weighted"', f'gaps = "{gaps}"'))
         assert main([str(scene), "--quiet", "--out", str(tmp_path / gaps)]) == 0
         summary = json.loads((tmp_path / gaps / "summary.json").read_text())
         assert summary["scene"]["solver"]["gaps"] == gaps
