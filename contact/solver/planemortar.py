@@ -30,8 +30,6 @@ surface's quadratic bulge.
 
 from __future__ import annotations
 
-import hashlib
-import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -41,6 +39,7 @@ from numpy.typing import NDArray
 from fem.elements import face_quadrature
 
 from ..geometry.plane import Plane
+from .kept import Kept, digest
 from .smoothing import corner_normals, face_cross, smoothed
 
 __all__ = ["PlaneRows", "plane_rows"]
@@ -82,27 +81,15 @@ def plane_rows(
     the surface and the normal: a body the frames do not move (a ball pressed by a
     moving plate) is integrated once.
     """
-    key = hashlib.blake2b(np.ascontiguousarray(points, np.float64).tobytes(), digest_size=20)
-    for kind in sorted(faces):
-        key.update(kind.encode() + np.ascontiguousarray(faces[kind], np.int64).tobytes())
-    key.update(np.ascontiguousarray(plane.normal, np.float64).tobytes())
-    digest = key.digest()
-    kept = _KEPT.get(digest)
-    if kept is None:
-        kept = _integrals(points, faces, plane.normal)
-        with _LOCK:  # a sweep's threads may share the module
-            while len(_KEPT) >= _KEEP:
-                _KEPT.pop(next(iter(_KEPT)))
-            _KEPT[digest] = kept
+    key = digest(np.asarray(points, np.float64), faces, np.asarray(plane.normal, np.float64))
+    kept = _KEPT.get(key, lambda: _integrals(points, faces, plane.normal))
     nodes, d, area, moment = kept
     gap0 = moment @ plane.normal / area - float((plane.point + plane.motion) @ plane.normal)
     return PlaneRows(nodes, d, area, gap0)
 
 
-#: The integrals of the surfaces and normals last asked for, by their bytes' hash.
-_KEPT: dict[bytes, tuple[NDArray, sp.csr_matrix, NDArray, NDArray]] = {}
-_KEEP = 16
-_LOCK = threading.Lock()
+#: The integrals of the surfaces and normals last asked for.
+_KEPT: Kept[tuple[NDArray, sp.csr_matrix, NDArray, NDArray]] = Kept(16)
 
 
 def _integrals(

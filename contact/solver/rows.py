@@ -11,9 +11,6 @@ rows come from measured gaps (:mod:`contact.solver.pairs`); mortar rows
 
 from __future__ import annotations
 
-import hashlib
-import threading
-from collections import OrderedDict
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
@@ -23,6 +20,7 @@ from numpy.typing import NDArray
 
 from ..geometry.plane import Plane
 from .body import ElasticBody
+from .kept import Kept, digest
 from .mortar import mortar_coupling
 from .pairs import ContactPair, Penetrations
 from .planemortar import plane_rows
@@ -254,24 +252,10 @@ def _padded(a: sp.csr_matrix, scale: NDArray[np.float64]) -> tuple[NDArray, NDAr
     return nodes, coef
 
 
-#: The last couplings between bodies, by their surfaces' fingerprint: a run's frames whose
-#: planes move and whose bodies stay (a ball on a block under a plate) integrate them once.
-_KEPT: OrderedDict[bytes, MortarCandidates] = OrderedDict()
+#: The last couplings between bodies: a run's frames whose planes move and whose bodies
+#: stay (a ball on a block under a plate) integrate them once.
 KEEP = 8
-_LOCK = threading.Lock()  # a sweep's threads may share the module
-
-
-def _fingerprint(pair: ContactPair, search: float) -> bytes:
-    """What a coupling between bodies depends on: both surfaces' points and facets, ``search``."""
-    h = hashlib.blake2b(digest_size=20)
-    for body in (pair.slave, pair.master):
-        h.update(repr(body.mesh.points.shape).encode())
-        h.update(np.ascontiguousarray(body.mesh.points, dtype=np.float64).tobytes())
-        for kind, f in body.contact_faces.faces.items():
-            h.update(f"{kind}{f.shape}".encode())
-            h.update(np.ascontiguousarray(f, dtype=np.int64).tobytes())
-    h.update(np.float64(search).tobytes())
-    return h.digest()
+_KEPT: Kept[MortarCandidates] = Kept(KEEP)
 
 
 def mortar_candidates(pair: ContactPair, index: int, search: float) -> MortarCandidates:
@@ -285,15 +269,9 @@ def mortar_candidates(pair: ContactPair, index: int, search: float) -> MortarCan
     slave, master = pair.slave, pair.master
     if isinstance(master, Plane):
         return _plane_candidates(slave, master, index)
-    key = _fingerprint(pair, search)
-    kept = _KEPT.get(key)
-    if kept is None:
-        kept = _body_candidates(slave, master, search)
-    with _LOCK:
-        _KEPT[key] = kept
-        _KEPT.move_to_end(key)
-        while len(_KEPT) > KEEP:
-            _KEPT.popitem(last=False)
+    key = digest(slave.mesh.points, slave.contact_faces.faces, master.mesh.points,
+                 master.contact_faces.faces, np.float64(search))  # fmt: skip
+    kept = _KEPT.get(key, lambda: _body_candidates(slave, master, search))
     rows = replace(kept.rows, pair=np.full(len(kept.rows), index, np.int64))
     return replace(kept, rows=rows)
 

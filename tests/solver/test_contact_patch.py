@@ -85,13 +85,14 @@ def test_a_coupling_is_integrated_once_for_the_same_surfaces(monkeypatch):
     """A frame between the same two surfaces reuses the kept coupling, read-only, with the
     same answer; a body moved by a round-off of its size is integrated anew."""
     import contact.solver.rows as rows_mod
+    from contact.solver.kept import Kept
 
     calls = []
     real = rows_mod.mortar_coupling
     monkeypatch.setattr(
         rows_mod, "mortar_coupling", lambda *a, **k: calls.append(1) or real(*a, **k)
     )
-    monkeypatch.setattr(rows_mod, "_KEPT", type(rows_mod._KEPT)())
+    monkeypatch.setattr(rows_mod, "_KEPT", Kept(rows_mod.KEEP))
     upper, lower = blocks(1.0)
     first = rows_mod.mortar_candidates(ContactPair(upper, lower, mortar=True), 0, 0.1)
     again = rows_mod.mortar_candidates(ContactPair(upper, lower, mortar=True), 3, 0.1)
