@@ -22,7 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .errors import MeshError
 from .generators import graded_ball_mesh
-from .mesh import Mesh
+from .mesh import Mesh, tet_volumes6
 from .meshing import tetrahedralize
 
 __all__ = ["SLIVER", "graded_octant_surface", "graded_tet_octant", "octant_sizing_field"]
@@ -252,34 +252,27 @@ def _snapped(mesh: Mesh, radius: float, center: NDArray[np.float64], tol: float)
     on[nodes] = True
     moved = np.linalg.norm(p - mesh.points, axis=1)
     for _ in range(4):  # each round takes back the furthest snapped node of each turned cell
-        vol = _volumes(p, tets)
+        vol = tet_volumes6(p, tets)
         bad = tets[(vol <= SLIVER * np.abs(vol).mean()) & ~on[tets].all(axis=1)]
         if not len(bad):
             break
         back = bad[np.arange(len(bad)), np.argmax(moved[bad], axis=1)]
         p[back], moved[back] = mesh.points[back], 0.0
-    return _without_flat(p, tets, nodes)
-
-
-def _volumes(points: NDArray[np.float64], tets: NDArray[np.int64]) -> NDArray[np.float64]:
-    """Six times each tetrahedron's signed volume."""
-    x = points[tets]
-    return np.einsum("ij,ij->i", np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), x[:, 3] - x[:, 0])
+    return _without_flat(p, tets, on)
 
 
 def _without_flat(
-    points: NDArray[np.float64], tets: NDArray[np.int64], boundary: NDArray[np.int64]
+    points: NDArray[np.float64], tets: NDArray[np.int64], on: NDArray[np.bool_]
 ) -> Mesh:
     """The tetrahedra less the slivers that snapping flattened onto the boundary.
 
     A sliver whose four nodes all lie on the boundary (at an edge between a cut plane and
     the sphere) can come out flat, or turned by round-off, once they are snapped: its
     volume, below :data:`SLIVER` of the mean, is nothing of the octant's, and its
-    neighbours' faces close the boundary where it lay. Nodes no cell keeps are dropped.
+    neighbours' faces close the boundary where it lay (``on``: the boundary nodes). Nodes
+    no cell keeps are dropped.
     """
-    vol = _volumes(points, tets)
-    on = np.zeros(len(points), dtype=bool)
-    on[boundary] = True
+    vol = tet_volumes6(points, tets)
     flat = (vol <= SLIVER * np.abs(vol).mean()) & on[tets].all(axis=1)
     if not flat.any():
         return Mesh(points, {"tetra": tets})

@@ -18,7 +18,7 @@ from scipy.spatial import cKDTree
 from .elements import ELEMENTS
 from .errors import MeshError
 from .mapping import det3, jacobians
-from .mesh import Mesh
+from .mesh import Mesh, tet_volumes6
 
 __all__ = [
     "box_mesh",
@@ -123,10 +123,8 @@ def grid_mesh(xs: ArrayLike, ys: ArrayLike, zs: ArrayLike) -> Mesh:
 
 
 def _orient_tets(pts: NDArray, tets: NDArray[np.int64]) -> NDArray[np.int64]:
-    x = pts[tets]
-    v = np.einsum("ei,ei->e", np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), x[:, 3] - x[:, 0])
     tets = tets.copy()
-    neg = v < 0
+    neg = tet_volumes6(pts, tets) < 0
     tets[neg, 1], tets[neg, 2] = tets[neg, 2].copy(), tets[neg, 1].copy()
     return tets
 

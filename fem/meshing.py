@@ -22,7 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .errors import MeshError
 from .io import _build
-from .mesh import DEGENERATE_TOL, Mesh
+from .mesh import DEGENERATE_TOL, Mesh, tet_volumes6
 
 if TYPE_CHECKING:
     import pyvista
@@ -286,7 +286,7 @@ def tetrahedralize(
     if len(t) == 0:
         raise MeshError(f"pytetwild returned no tetrahedra for {what}")
     x = p[t]
-    vol6 = np.einsum("ij,ij->i", np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), x[:, 3] - x[:, 0])
+    vol6 = tet_volumes6(p, t)
     neg = vol6 < 0
     t[neg] = t[neg][:, [0, 2, 1, 3]]
     sliver = np.abs(vol6) <= DEGENERATE_TOL * np.ptp(x, axis=1).max(axis=1) ** 3

@@ -84,7 +84,8 @@ def test_a_sliver_snapping_flattened_on_the_boundary_is_dropped():
 
     box = fem.box_mesh((1.0, 1.0, 1.0), (2, 2, 2), element="tetra")
     tets = box.cells["tetra"]
-    boundary = np.unique(box.boundary.faces["triangle"])
+    boundary = np.zeros(box.n_points, dtype=bool)
+    boundary[np.unique(box.boundary.faces["triangle"])] = True
     flat = np.flatnonzero(box.points[:, 2] == 0.0)[:4]  # on the face z = 0: coplanar
     mesh = _without_flat(box.points, np.vstack([tets, flat]), boundary)
     assert np.array_equal(mesh.cells["tetra"], tets) and mesh.n_points == box.n_points
@@ -107,7 +108,8 @@ def test_a_snap_that_would_turn_a_cell_with_an_inner_node_is_taken_back():
     """Four tetrahedra about an inner node just inside a boundary node outside the sphere:
     snapping that node onto the sphere would pass the inner node and turn cells;
     it stays where it was, the other boundary nodes are snapped."""
-    from fem.graded_tets import _snapped, _volumes
+    from fem.graded_tets import _snapped
+    from fem.mesh import tet_volumes6 as _volumes
 
     ways = ([0.3, 0.3, -0.9], [0.5, 0.1, -0.9], [0.1, 0.5, -0.9], [0.45, 0.45, -0.6])
     unit = [np.asarray(v, float) / np.linalg.norm(v) for v in ways]
