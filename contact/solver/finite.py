@@ -9,8 +9,9 @@ stiffness is the tangent ``K_T(u)`` (with a follower pressure's) and whose loads
 forces out of balance ``f_ext(u) - f_int(u)``. The linear frame
 (:func:`contact.solver.iteration.solve_frame`) solves its contacts: its displacements are
 the step ``du``, its contact forces the total ones. The step is shortened where it would
-turn a cell inside out. Newton stops where the step is round-off of the body's size and
-the forces out of balance, contact forces included, round-off of the frame's largest force.
+turn a cell inside out. Newton stops where the error a step leaves (from its rate,
+:class:`~.newtonrate.StepErrors`) is round-off of the body's size and the forces out of
+balance, contact forces included, round-off of the frame's largest force.
 
 Linear bodies may take part: each linearisation solves them whole, as a frame does.
 
@@ -24,13 +25,12 @@ rigid modes. A free body's full tangent does not vanish on its turns: with frict
 frames border it with its turn stiffness (:class:`fem.TurningInverse`,
 :meth:`contact.solver.delassus.ContactSpace.border`); one whose steps still shrink only
 at a linear rate takes the material tangent (:func:`contact.solver.newtonrate.linear_rate`).
-A free body's step turns it by a finite rotation, at most :data:`MAX_TURN`
-(:func:`_turned`). Newton stops as stalled where its
-residual no longer halves (:data:`STALL`). Friction's slip is measured from the previous
-frame's anchors and from where the frame's steps first met each contact, in every step
-(:meth:`contact.solver.anchors.Anchors.keeping`); without friction, once a contact flips
-(:class:`contact.solver.newtonrate.Flips`) each step searches from where the last left
-the linear bodies. Force-driven planes are placed by every step's solve.
+A free body's step turns it by a finite rotation, at most :data:`MAX_TURN` (:func:`_turned`).
+Newton stops as stalled where its residual no longer halves (:data:`STALL`). Friction's
+slip is measured from the previous frame's anchors and from where the frame's steps first
+met each contact, in every step (:meth:`contact.solver.anchors.Anchors.keeping`); without
+friction, once a contact flips (:class:`~.newtonrate.Flips`) each step searches from where
+the last left the linear bodies. Force-driven planes are placed by every step's solve.
 """
 
 from __future__ import annotations
@@ -53,7 +53,7 @@ from .anchors import Anchors
 from .body import ElasticBody
 from .damping import Damping
 from .iteration import solve_frame
-from .newtonrate import ANDERSON_FROM, Flips, anderson, linear_rate, slow
+from .newtonrate import ANDERSON_FROM, Flips, StepErrors, anderson, linear_rate, slow
 from .pairs import ContactPair
 from .results import FrameResult, IterationRecord
 from .settings import ContactSettings
@@ -64,8 +64,8 @@ log = logging.getLogger(__name__)
 
 #: Newton steps a frame may take.
 MAX_NEWTON = 30
-#: A step below this fraction of the body's size, with the residual below
-#: :data:`RESIDUAL` of the forces, has converged.
+#: A step leaving an error below this fraction of the body's size (``StepErrors``), with
+#: the residual below :data:`RESIDUAL` of the forces, has converged.
 STEP_TOL = 1e-9
 RESIDUAL = 1e-8
 #: Halvings of a step that would turn a cell inside out.
@@ -138,8 +138,7 @@ class FiniteBody:
                 k = (k + k_p).tocsr()
         if springs is not None and springs.nnz and not self.free:
             k = (k + springs).tocsr()
-        placed = fem.Mesh(self.mesh.points + u.reshape(-1, 3), self.mesh.cells,
-                          self.mesh.regions)
+        placed = fem.Mesh(self.mesh.points + u.reshape(-1, 3), self.mesh.cells, self.mesh.regions)
         body = ElasticBody(
             self.name, placed, self.materials, prescribed=self.prescribed,
             loads=f_ext - state.force, contact_faces=self.contact_faces,
@@ -252,6 +251,7 @@ def solve_finite_frame(
     residuals: list[float] = []
     swung = 0
     damping = Damping()  # the free bodies' steps' springs (contact.solver.damping)
+    errors = StepErrors()
     free = [b.name for b in finite if b.free]
     step = 0
     while step < max_steps:
@@ -327,7 +327,7 @@ def solve_finite_frame(
             stop = res.stop_reason
             log.debug("Newton step %d: the linear frame stopped: %s", step, stop)
             break
-        moves = {}
+        moves, left = {}, {}
         steps_now = {b.name: res.displacement[b.name].ravel() for b in finite}
         # mixing takes up the material tangent's linear rate; the full tangent's own steps
         # are left whole (mixed, a squeezed ball's cycle between contact sets grows)
@@ -353,8 +353,10 @@ def solve_finite_frame(
             forces = res.contact_force[b.name]
             r_b, scale_b = _residual(b, u[b.name], f_int, forces, held)
             out_of_balance, scale = max(out_of_balance, r_b), max(scale, scale_b)
-            if not damp and motion <= MAX_TURN:  # a Newton step's own rate
+            if own := not damp and motion <= MAX_TURN:  # a Newton step's own rate
                 last_move[b.name].append(moves[b.name])
+            plain = own and b.name not in mixed and not (b.free and short)
+            left[b.name] = errors.left(b.name, step, moves[b.name], plain)
             if b.free and full[b.name] and b.follower is None and linear_rate(last_move[b.name]):
                 slow_full.add(b.name)
         # over the frame's largest force: a body that carries nothing (a finger a step
@@ -367,7 +369,7 @@ def solve_finite_frame(
             step, {k: f"{v:.3g}" for k, v in moves.items()}, residual,
             len(res.contacts.get("node", ())), res.stop_reason, damp,
         )  # fmt: skip
-        if max(moves.values(), default=0.0) <= STEP_TOL and residual <= RESIDUAL:
+        if max(left.values(), default=0.0) <= STEP_TOL and residual <= RESIDUAL:
             stop = "converged"
             return FiniteFrame(res, _all(bodies, u, res), step, True, stop, residual, clock)
         residuals.append(residual)
@@ -412,9 +414,8 @@ def _springs(
     k = float(lin.stiffness.diagonal().max())
     blocks = k * normal[:, :, None] * normal[:, None, :]
     dofs = 3 * nodes[:, None] + np.arange(3)
-    rows = np.repeat(dofs, 3, axis=1).ravel()
-    cols = np.tile(dofs, 3).ravel()
-    return sp.csr_matrix((blocks.ravel(), (rows, cols)), shape=(n, n))
+    at = (np.repeat(dofs, 3, axis=1).ravel(), np.tile(dofs, 3).ravel())
+    return sp.csr_matrix((blocks.ravel(), at), shape=(n, n))
 
 
 def _motion(t: NDArray, omega: NDArray, size: float) -> float:

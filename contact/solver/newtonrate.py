@@ -3,7 +3,8 @@
 Bookkeeping across the steps of :func:`contact.solver.finite.solve_finite_frame`: a free
 body's full-tangent steps that shrink only at a linear rate (:func:`linear_rate`), steps
 too slow for Newton's own (:func:`slow`) that Anderson mixing takes up (:func:`anderson`),
-and a contact set that flips from step to step (:class:`Flips`).
+a contact set that flips from step to step (:class:`Flips`), and the error a step leaves,
+from its rate (:class:`StepErrors`).
 """
 
 from __future__ import annotations
@@ -16,9 +17,11 @@ from numpy.typing import NDArray
 __all__ = [
     "ANDERSON",
     "ANDERSON_FROM",
+    "CONTRACTS",
     "FAST",
     "SLOW_FULL",
     "Flips",
+    "StepErrors",
     "anderson",
     "linear_rate",
     "slow",
@@ -34,6 +37,32 @@ FAST = 0.05
 #: A free body whose full-tangent steps shrink by less than this ratio from its third
 #: step on takes the material tangent for the rest of the frame (:func:`linear_rate`).
 SLOW_FULL = 0.3
+#: Two consecutive steps whose ratio is at most this contract: the error left after the
+#: second is estimated from their rate (:class:`StepErrors`).
+CONTRACTS = 0.5
+
+
+class StepErrors:
+    """The error a body's Newton step leaves, estimated from the rate of its last two.
+
+    Where two consecutive plain steps (neither damped, mixed nor shortened) shrink by a
+    ratio ``rho <= CONTRACTS``, the steps still to come sum to about ``rho / (1 - rho)``
+    of the last one (a geometric series; far less at Newton's quadratic rate): that is
+    the error left, where the last step alone would call for one more step to show it
+    small. Otherwise the last step itself is taken.
+    """
+
+    def __init__(self) -> None:
+        self.last: dict[str, tuple[int, float] | None] = {}
+
+    def left(self, name: str, step: int, move: float, plain: bool) -> float:
+        """Body ``name``'s error left after Newton step ``step`` of size ``move``."""
+        before = self.last.get(name)
+        self.last[name] = (step, move) if plain else None
+        if not plain or before is None or before[0] != step - 1 or not before[1] > 0.0:
+            return move
+        rho = move / before[1]
+        return move * rho / (1.0 - rho) if rho <= CONTRACTS else move
 
 
 class Flips:
