@@ -37,7 +37,7 @@ name = "pads"
 radius = 0.02
 kind = "solid"
 element = "hex"
-mesh_size = 0.006
+mesh_size = {h}
 center = [0.0, 0.0, 0.0]
 material = {{ E = 1.0e6, nu = 0.45, density = 1100.0 }}
 friction = {mu}
@@ -60,6 +60,7 @@ times = [1.0]
 [solver]
 algorithm = "contact-space"
 max_iterations = 30
+gaps = "{gaps}"
 
 [output]
 directory = "{out}"
@@ -71,10 +72,13 @@ OFFSETS = "offsets = [[0.0, 0.0, 0.0, 0.0], [1.0, 0.001, 0.0, 0.0]]"
 GRAVITY = "gravity = [0.0, 0.0, -9.81]"
 
 
-def pads(tmp_path: Path, *, left=FORCE, right=FORCE, mu=0.5, gravity=GRAVITY) -> Path:
+def pads(
+    tmp_path: Path, *, left=FORCE, right=FORCE, mu=0.5, gravity=GRAVITY, gaps="nodal", h=0.006
+) -> Path:
     path = tmp_path / "pads.toml"
     out = (tmp_path / "results").as_posix()
-    path.write_text(PADS.format(left=left, right=right, mu=mu, gravity=gravity, out=out))
+    text = PADS.format(left=left, right=right, mu=mu, gravity=gravity, out=out, gaps=gaps, h=h)
+    path.write_text(text)
     return path
 
 
@@ -414,6 +418,25 @@ def test_pads_least_grip_is_m_g_over_2_mu(tmp_path: Path) -> None:
     assert stop.startswith("not held") and "slips along" in stop
     z = float(stop.split("slips along (")[1].split(")")[0].split(",")[2])
     assert z < 0
+
+
+def test_pads_of_unequal_friction_hold_by_the_lesser(tmp_path: Path) -> None:
+    # the two friction forces act at the ends of a diameter: the ball's balance of moments
+    # makes them equal, W / 2 each, so the pad of the lesser mu limits the grip,
+    # N = W / (2 mu_min), not W / (mu_1 + mu_2). By weighted gaps on 4 mm bricks 4 %
+    # under it; node rows hold the ball at W / (mu_1 + mu_2), 11 % under: their patch of
+    # stuck nodes carries the moment
+    constant = "force = [[0.0, 1.0]]"
+    left, right = constant + "\nfriction = 0.4", constant + "\nfriction = 0.5"
+    scene = load_scene(pads(tmp_path, left=left, right=right, gaps="weighted", h=0.004))
+    run = GraspRun(scene)
+    weight = -float(run.ball_body(1.0).loads.reshape(-1, 3).sum(axis=0)[2])
+    out = least_grip(run, [1.0])
+    check_bracket(out)
+    assert out.limit == "friction"
+    for name in ("left_pad", "right_pad"):
+        assert out.forces[name] == pytest.approx(weight / (2 * 0.4), rel=0.05)
+        assert out.forces[name] > 1.05 * weight / (0.4 + 0.5)
 
 
 def test_pads_least_grip_names_friction_and_the_frame_that_limits_it(tmp_path: Path) -> None:
