@@ -355,7 +355,7 @@ def solve_finite_frame(
             out_of_balance, scale = max(out_of_balance, r_b), max(scale, scale_b)
             if own := not damp and motion <= MAX_TURN:  # a Newton step's own rate
                 last_move[b.name].append(moves[b.name])
-            plain = own and b.name not in mixed and not (b.free and short)
+            plain = own and b.name not in mixed and not (b.free and short) and flips.steady
             left[b.name] = errors.left(b.name, step, moves[b.name], plain)
             if b.free and full[b.name] and b.follower is None and linear_rate(last_move[b.name]):
                 slow_full.add(b.name)

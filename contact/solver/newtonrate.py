@@ -45,11 +45,11 @@ CONTRACTS = 0.5
 class StepErrors:
     """The error a body's Newton step leaves, estimated from the rate of its last two.
 
-    Where two consecutive plain steps (neither damped, mixed nor shortened) shrink by a
-    ratio ``rho <= CONTRACTS``, the steps still to come sum to about ``rho / (1 - rho)``
-    of the last one (a geometric series; far less at Newton's quadratic rate): that is
-    the error left, where the last step alone would call for one more step to show it
-    small. Otherwise the last step itself is taken.
+    Where two consecutive plain steps (neither damped, mixed nor shortened, closing the
+    same contacts) shrink by a ratio ``rho <= CONTRACTS``, the steps still to come sum to
+    about ``rho / (1 - rho)`` of the last one (a geometric series; far less at Newton's
+    quadratic rate): that is the error left, where the last step alone would call for one
+    more step to show it small. Otherwise the last step itself is taken.
     """
 
     def __init__(self) -> None:
@@ -85,6 +85,11 @@ class Flips:
             a, b, c = self.seen[-3:]
             self.flipped |= bool((b - a) & (b - c) or (a & c) - b)
         return self.flipped
+
+    @property
+    def steady(self) -> bool:
+        """The last two steps closed the same contacts."""
+        return len(self.seen) >= 2 and self.seen[-1] == self.seen[-2]
 
 
 def linear_rate(moves: list[float]) -> bool:

@@ -12,7 +12,7 @@ import fem
 from contact.geometry.plane import Plane
 from contact.solver import finite
 from contact.solver.finite import FiniteBody, solve_finite_frame
-from contact.solver.newtonrate import CONTRACTS, StepErrors
+from contact.solver.newtonrate import CONTRACTS, Flips, StepErrors
 from contact.solver.pairs import ContactPair
 
 
@@ -39,6 +39,16 @@ def test_otherwise_the_step_itself_is_the_error(steps, why):
     for step, move, plain in steps:
         last = errors.left("b", step, move, plain)
     assert last == steps[-1][1], why
+
+
+def test_steps_that_close_other_contacts_are_not_plain():
+    flips = Flips()
+    flips.add({"pair": ["ball/plate"], "node": [3]})
+    assert not flips.steady
+    flips.add({"pair": ["ball/plate"], "node": [3]})
+    assert flips.steady
+    flips.add({"pair": ["ball/plate", "ball/plate"], "node": [3, 4]})
+    assert not flips.steady
 
 
 def test_the_frame_it_stops_is_within_its_tolerance_of_the_converged_one(monkeypatch):
