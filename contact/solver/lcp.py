@@ -31,6 +31,7 @@ import numpy as np
 import scipy.linalg as sla
 from numpy.typing import NDArray
 
+from fem.errors import LoadError
 from fem.saddle import cholesky_or_none, held_modes, solve_saddle, solve_saddle_with
 from fem.threads import dense_threads
 
@@ -112,7 +113,9 @@ def solve_lcp(
     Raises
     ------
     fem.LoadError
-        If the closed rows cannot hold a free body whose loads are out of balance.
+        If the closed rows cannot hold a free body whose loads are out of balance: the
+        rows that started closed, then every row (the body moves until they touch), and
+        then those of them that do not pull.
     """
     with dense_threads(np.size(rhs)):  # small dense work: one BLAS thread
         return _active_set(w, g, rhs, c, tol, start, load_scale, max_steps)
@@ -156,10 +159,20 @@ def _active_set(
     )
     closed_solve = _ClosedSolver(w, g, rhs, c, load_scale)
     batch: NDArray[np.int64] | None = None  # the rows the last step closed at once
+    widened = False
     while steps < limit:
         idx = np.flatnonzero(closed)
         z = np.zeros(m)
-        z[idx], a = closed_solve(idx)
+        try:
+            z[idx], a = closed_solve(idx)
+        except LoadError:
+            # the closed rows leave a loaded body free (a ball the pads press, its
+            # weight on a table row that starts open): it moves until the open rows
+            # touch, so they close too, once; then what pulls opens as always
+            if widened or closed.all():
+                raise
+            widened, closed[:] = True, True
+            continue
         steps += 1
         if not closed_solve.exact and batch is not None:
             # rows closed together that repeat one another: taken one at a time instead

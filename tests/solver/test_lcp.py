@@ -95,6 +95,21 @@ def test_rows_that_repeat_one_another_share_the_force_of_one():
     assert res.gap.min() >= -1e-9
 
 
+def test_a_free_body_the_start_leaves_loaded_moves_onto_the_open_rows():
+    # a ball pressed by two pads along x starts on their rows alone; its weight along z
+    # has no closed row: it moves onto the table row, open by 0.1 mm, which carries it
+    w = 1e-4 * _spd(3, 5)
+    g = np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0]])  # left pad, right pad, table
+    rhs = np.array([0.0, 0.0, -1e-4])
+    weight = 0.36
+    c = np.array([0.0, weight])
+    res = solve_lcp(w, g, rhs, c, tol=1e-12, start=np.array([0.5, 0.5, 0.0]))
+    assert res.solved
+    np.testing.assert_allclose(g.T @ res.lam, c, atol=1e-12)
+    assert res.lam[2] == pytest.approx(weight, rel=1e-12)
+    assert res.lam.min() >= 0 and res.gap.min() >= -1e-12
+
+
 def test_a_loaded_free_body_that_nothing_holds_is_an_error():
     w = np.eye(2)
     g = np.array([[1.0], [1.0]])
